@@ -1,0 +1,187 @@
+"""Exact solver: scenarios whose answers are known by hand."""
+import numpy as np
+import pytest
+
+from models import box_features as bf
+from models.exact import InvalidBoxError, box_box
+from models.rotations import InvalidRotationError, euler_to_quaternion, matrix_to_quaternion
+
+#: Absolute tolerance (metres) for hand-computed answers: a few ulps of the metre scale.
+HAND_TOL = 1e-12
+IDENTITY = [1.0, 0.0, 0.0, 0.0]
+SQRT2, SQRT3 = np.sqrt(2.0), np.sqrt(3.0)
+
+
+def assert_finite(contacts):
+    for name, value in contacts.arrays().items():
+        if value.dtype.kind == "f":
+            assert np.isfinite(value).all(), name
+
+
+def vertex_down_quaternion():
+    """Rotation taking B's (+,+,+) vertex direction to -z (the vertex points down)."""
+    down = -np.ones(3) / SQRT3
+    z = np.array([0.0, 0.0, -1.0])
+    axis = np.cross(down, z)
+    angle = np.arccos(np.clip(down @ z, -1, 1))
+    axis = axis / np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    # Rodrigues: rotates the (-,-,-) diagonal onto -z, i.e. (+,+,+) onto +z; flip with pi about x.
+    rot = np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+    flip = np.diag([1.0, -1.0, -1.0])
+    return matrix_to_quaternion(flip @ rot)[0]
+
+
+def test_resting_face_face_point_is_centre_of_overlap():
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [1, 1, 1], [0.3, 0.2, 1.49], IDENTITY)
+    assert c.colliding[0]
+    np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=HAND_TOL)
+    assert c.depth[0] == pytest.approx(0.01, abs=HAND_TOL)
+    np.testing.assert_allclose(c.point[0], [0.3, 0.2, 0.995], atol=HAND_TOL)
+    assert c.contact_type[0] == "face-face"
+    assert (c.feature_a[0], c.feature_b[0]) == (bf.face_id(2, False), bf.face_id(2, True))
+    assert c.manifold_count[0] == 4
+    assert_finite(c)
+
+
+def test_partial_overlap_of_a_large_box_puts_the_point_at_the_overlap_centre():
+    # B (4 x 4 x 1) overhangs A's top face (2 x 2) on +x: overlap x in [0.5, 1], y in [-1, 1].
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [4, 4, 1], [2.5, 0.0, 1.49], IDENTITY)
+    np.testing.assert_allclose(c.point[0], [0.75, 0.0, 0.995], atol=HAND_TOL)
+    assert c.contact_type[0] == "face-face"
+
+
+def test_vertex_on_face_point_is_the_vertex_moved_half_the_depth():
+    q = vertex_down_quaternion()
+    centre = np.array([0.1, 0.2, 1.0 + SQRT3 - 0.01])
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [2, 2, 2], centre, q)
+    assert c.contact_type[0] == "face-vertex"
+    np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=1e-12)
+    assert c.depth[0] == pytest.approx(0.01, abs=1e-12)
+    np.testing.assert_allclose(c.point[0], [0.1, 0.2, 0.995], atol=1e-12)
+    assert bf.feature_kind(c.feature_b[0]) == "vertex"
+    assert c.manifold_count[0] == 1
+
+
+def test_vertex_of_a_on_face_of_b_mirrors_the_labels():
+    q = vertex_down_quaternion()
+    centre = np.array([0.1, 0.2, 1.0 + SQRT3 - 0.01])
+    c = box_box([2, 2, 2], centre, q, [2, 2, 2], [0, 0, 0], IDENTITY)
+    assert c.contact_type[0] == "vertex-face"
+    np.testing.assert_allclose(c.normal[0], [0, 0, -1], atol=1e-12)
+    np.testing.assert_allclose(c.point[0], [0.1, 0.2, 0.995], atol=1e-12)
+
+
+def test_edges_crossing_at_90_degrees_give_edge_edge():
+    qa = euler_to_quaternion([0, np.pi / 4, 0])[0]  # A's ridge along y at z = sqrt2
+    qb = euler_to_quaternion([np.pi / 4, 0, 0])[0]  # B's lower ridge along x
+    c = box_box([2, 2, 2], [0, 0, 0], qa, [2, 2, 2], [0, 0, 2 * SQRT2 - 0.02], qb)
+    assert c.contact_type[0] == "edge-edge"
+    np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=1e-12)
+    assert c.depth[0] == pytest.approx(0.02, abs=1e-12)
+    np.testing.assert_allclose(c.point[0], [0, 0, SQRT2 - 0.01], atol=1e-12)
+    assert bf.feature_kind(c.feature_a[0]) == "edge" and bf.feature_kind(c.feature_b[0]) == "edge"
+
+
+@pytest.mark.parametrize("yaw", [0.0, np.pi / 4])
+def test_edge_lying_on_a_face_at_45_degrees_gives_face_edge(yaw):
+    # B (1 x 2 x 2) rolled 45 degrees about its x axis rests on its lowest x edge, which is
+    # then turned by `yaw` in the plane of A's top face.
+    qb = euler_to_quaternion([np.pi / 4, 0, yaw])[0]
+    c = box_box([3, 3, 2], [0, 0, 0], IDENTITY, [1, 2, 2], [0.2, -0.1, 1 + SQRT2 - 0.01], qb)
+    assert c.contact_type[0] == "face-edge"
+    assert c.feature_b[0] == bf.edge_id(0, True, True)
+    np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=1e-12)
+    assert c.depth[0] == pytest.approx(0.01, abs=1e-12)
+    np.testing.assert_allclose(c.point[0], [0.2, -0.1, 0.995], atol=1e-12)
+    assert c.manifold_count[0] == 2
+
+
+def test_box_inside_another_pushes_out_through_the_nearest_face():
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [0.5, 0.5, 0.5], [0, 0, 0.2], IDENTITY)
+    assert c.colliding[0]
+    np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=HAND_TOL)
+    assert c.depth[0] == pytest.approx(1.05, abs=HAND_TOL)
+    np.testing.assert_allclose(c.point[0], [0, 0, 0.475], atol=HAND_TOL)
+
+
+def test_concentric_boxes_resolve_the_tie_to_the_lowest_axis():
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [2, 2, 2], [0, 0, 0], IDENTITY)
+    assert c.axis[0] == 0
+    np.testing.assert_allclose(c.normal[0], [1, 0, 0])
+    assert c.depth[0] == pytest.approx(2.0)
+    assert_finite(c)
+
+
+def test_exactly_touching_is_colliding_with_zero_depth():
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [2, 2, 2], [[0.5, 0.25, 2.0], [0.5, 0.25, 2.0 + 1e-9]],
+                IDENTITY)
+    assert c.colliding.tolist() == [True, False]
+    assert c.depth.tolist() == [0.0, 0.0]
+    np.testing.assert_allclose(c.point[0], [0.25, 0.125, 1.0], atol=HAND_TOL)
+    assert c.contact_type.tolist() == ["face-face", "none"]
+    assert c.feature_a[1] == c.feature_b[1] == bf.NO_FEATURE
+    assert_finite(c)
+
+
+@pytest.mark.parametrize("size_a,size_b", [
+    ([12.192, 2.438, 2.591], [12.192, 2.438, 2.591]),  # 40 ft on 40 ft
+    ([4.0, 4.0, 1.0], [2.0, 2.0, 0.01]),  # a thin plate on a block (MuJoCo's thin-box case)
+])
+def test_resting_stack_at_0056_mm_has_no_phantom_deep_contact(size_a, size_b):
+    overlap = 0.056e-3
+    z = 0.5 * (size_a[2] + size_b[2]) - overlap
+    c = box_box(size_a, [10.0, -3.0, 1.0], IDENTITY, size_b, [10.0, -3.0, 1.0 + z], IDENTITY)
+    assert c.depth[0] == pytest.approx(overlap, rel=1e-9)
+    np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=HAND_TOL)
+    top = 1.0 + 0.5 * size_a[2]
+    np.testing.assert_allclose(c.point[0], [10.0, -3.0, top - overlap / 2], atol=1e-9)
+    assert c.contact_type[0] == "face-face"
+
+
+def test_separated_rows_carry_no_nan_and_no_features():
+    c = box_box([1, 1, 1], [0, 0, 0], IDENTITY, [1, 1, 1], [[3, 0, 0], [0, -5, 0]], IDENTITY)
+    assert not c.colliding.any()
+    np.testing.assert_allclose(c.normal, [[1, 0, 0], [0, -1, 0]])
+    assert (c.manifold_count == 0).all() and (c.contact_type_code == 0).all()
+    assert_finite(c)
+
+
+def test_batch_row_equals_single_call():
+    rng = np.random.default_rng(7)
+    pos = rng.normal(size=(50, 3))
+    quat = rng.normal(size=(50, 4))
+    batch = box_box([2, 1, 1.5], [0, 0, 0], IDENTITY, [1, 1, 1], pos, quat)
+    for i in range(50):
+        one = box_box([2, 1, 1.5], [0, 0, 0], IDENTITY, [1, 1, 1], pos[i], quat[i])
+        for name, value in one.arrays().items():
+            np.testing.assert_allclose(value[0] if value.dtype.kind == "f" else value[0],
+                                       getattr(batch, name)[i], atol=1e-12, err_msg=name) \
+                if value.dtype.kind == "f" else np.testing.assert_array_equal(
+                    value[0], getattr(batch, name)[i], err_msg=name)
+
+
+@pytest.mark.parametrize("kwargs,field", [
+    ({"size_a": [0, 1, 1]}, "size_a"),
+    ({"size_b": [1, -1, 1]}, "size_b"),
+    ({"position_a": [np.nan, 0, 0]}, "position_a"),
+    ({"position_b": [np.inf, 0, 0]}, "position_b"),
+    ({"size_a": [1, 1]}, "size_a"),
+])
+def test_invalid_box_inputs_name_the_field(kwargs, field):
+    args = dict(size_a=[1, 1, 1], position_a=[0, 0, 0], quaternion_a=IDENTITY,
+                size_b=[1, 1, 1], position_b=[0, 0, 0.9], quaternion_b=IDENTITY)
+    args.update(kwargs)
+    with pytest.raises(InvalidBoxError) as info:
+        box_box(**args)
+    assert info.value.field == field
+
+
+def test_zero_quaternion_is_rejected():
+    with pytest.raises(InvalidRotationError):
+        box_box([1, 1, 1], [0, 0, 0], [0, 0, 0, 0], [1, 1, 1], [0, 0, 0.9], IDENTITY)
+
+
+def test_ragged_batch_is_rejected():
+    with pytest.raises(InvalidBoxError):
+        box_box([1, 1, 1], np.zeros((3, 3)), IDENTITY, [1, 1, 1], np.zeros((4, 3)), IDENTITY)
