@@ -156,8 +156,9 @@ def touching_distance(size_a, size_b, rotation_ab, direction, return_axis=False)
     vectors are in A's frame.
 
     Why this is exact: two convex boxes overlap iff their projections overlap on every one of
-    the 15 SAT axes ``n_k`` (3 face normals of A, 3 of B, 9 edge cross products; a separating
-    plane of two polytopes is always parallel to a face or to an edge of each). With B's
+    the 15 SAT axes ``n_k`` (3 face normals of A, 3 of B, 9 edge cross products: two
+    disjoint convex polytopes always have a separating plane parallel to a face of one of
+    them or to an edge of each, and a box's faces and edges have only 3 directions). With B's
     centre at ``s d`` the overlap condition on axis ``k`` is ``|n_k . d| s <= r_k``, where
     ``r_k`` is the sum of the projected half-extents (independent of ``s``). Each condition
     holds on the interval ``s <= r_k / |n_k . d|`` (all ``s`` when ``n_k . d = 0``), so the set

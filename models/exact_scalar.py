@@ -20,6 +20,7 @@ from models.sat import CONTACT_TOL_REL, EDGE_SKEW_TOL_REL, TIE_TOL_REL
 _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]
 _FACE_REF_CODES = (0, ct.FACE_VERTEX, ct.FACE_EDGE, ct.FACE_FACE)
 _FACE_INC_CODES = (0, ct.VERTEX_FACE, ct.EDGE_FACE, ct.FACE_FACE)
+_EXACT_NAME = np.array(["exact"])
 
 
 def _sgn(x: float) -> float:
@@ -305,17 +306,20 @@ def _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, m
     """Map one pair's A-frame answer to the world frame as a one-row `Contacts`."""
     manifold_points = np.zeros((1, ct.MAX_MANIFOLD_POINTS, 3))
     manifold_depths = np.zeros((1, ct.MAX_MANIFOLD_POINTS))
-    for m, (p, d) in enumerate(manifold):
-        manifold_points[0, m] = [pa[r] + _dot(rot_a[r], p) for r in range(3)]
-        manifold_depths[0, m] = d
+    if manifold:
+        count = len(manifold)
+        manifold_points[0, :count] = [[pa[r] + _dot(rot_a[r], p) for r in range(3)]
+                                      for p, _ in manifold]
+        manifold_depths[0, :count] = [d for _, d in manifold]
     if point is None:
         world_point = [0.5 * (pa[k] + pb[k]) for k in range(3)]
     else:
         world_point = [pa[r] + _dot(rot_a[r], point) for r in range(3)]
+    floats = np.array([_apply(rot_a, normal), world_point])
+    ints = np.array([[code, feature_a, feature_b, axis, len(manifold)]], np.int8)
     return ct.Contacts(
-        colliding=np.array([colliding]), normal=np.array([_apply(rot_a, normal)]),
-        depth=np.array([depth]), point=np.array([world_point]),
-        contact_type_code=np.array([code], np.int8), feature_a=np.array([feature_a], np.int8),
-        feature_b=np.array([feature_b], np.int8), axis=np.array([axis], np.int8),
-        manifold_points=manifold_points, manifold_depths=manifold_depths,
-        manifold_count=np.array([len(manifold)], np.int8))
+        colliding=np.array([colliding]), normal=floats[0:1], depth=np.array([depth]),
+        point=floats[1:2], contact_type_code=ints[:, 0], feature_a=ints[:, 1],
+        feature_b=ints[:, 2], axis=ints[:, 3], manifold_points=manifold_points,
+        manifold_depths=manifold_depths, manifold_count=ints[:, 4],
+        confidence=np.ones(1), predictor=_EXACT_NAME.copy())

@@ -9,14 +9,12 @@ import pytest
 from models.contacts import CONTACT_TYPES
 from models.exact import box_box
 from models.rotations import quaternion_multiply, quaternion_to_matrix, random_quaternions
+from tests.models.helpers import KEYS, assert_finite, point_tolerance, scale_of
 from training.poses import ORIENTATIONS, SIZE_FAMILIES, first_contact_poses
 
 #: Geometric tolerance (x pair scale): a few hundred ulps of the scale.
 GEOM_TOL_REL = 1e-11
-#: Point agreement (x pair scale) of two solves of the same contact posed differently.
-POINT_TOL_REL = 1e-9
 MIRRORED_TYPE = {name: "-".join(reversed(name.split("-"))) for name in CONTACT_TYPES}
-KEYS = ("size_a", "position_a", "quaternion_a", "size_b", "position_b", "quaternion_b")
 
 
 def fuzz_poses(seed, per_case):
@@ -31,28 +29,13 @@ def fuzz_poses(seed, per_case):
     return {k: np.concatenate([c[k] for c in chunks]) for k in KEYS}
 
 
-def scale_of(p):
-    return 0.5 * (p["size_a"].max(1) + p["size_b"].max(1))
-
-
-def point_tolerance(p, depth):
-    """Allowed point change (metres) under a rounding-level change of the input.
-
-    The depth-weighted point of a manifold of extent L and depth d moves by L * dd / d when
-    the depths move by dd, so below d = 1e-6 L the bound grows as L / d (conditioning, not
-    error): 1e-9 of the scale otherwise.
-    """
-    scale = scale_of(p)
-    return POINT_TOL_REL * scale * np.maximum(1.0, 1e-6 * scale / np.maximum(depth, 1e-300))
 
 
 def check_invariants(p):
     c = box_box(*(p[k] for k in KEYS))
     scale = scale_of(p)
     tol = GEOM_TOL_REL * scale
-    for name, value in c.arrays().items():
-        if value.dtype.kind == "f":
-            assert np.isfinite(value).all(), name
+    assert_finite(c)
     np.testing.assert_allclose(np.linalg.norm(c.normal, axis=1), 1.0, atol=1e-12)
     assert (c.depth >= 0).all()
     # The point lies inside both boxes grown by the depth.
