@@ -97,11 +97,11 @@ class Contacts:
         """Contact type names, shape (n,), e.g. ``"vertex-face"``; ``"none"`` if separated."""
         return np.asarray(CONTACT_TYPES)[self.contact_type_code]
 
-    def row(self, i: int) -> "Contacts":
+    def row(self, i: int) -> Contacts:
         """The i-th pair as a one-row `Contacts` (shapes keep their leading axis of 1)."""
         return self.take(np.array([i]))
 
-    def take(self, index: np.ndarray) -> "Contacts":
+    def take(self, index: np.ndarray) -> Contacts:
         """Rows selected by an integer or boolean index array, as a new `Contacts`."""
         return Contacts(**{name: value[index] for name, value in self.arrays().items()})
 

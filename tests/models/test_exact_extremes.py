@@ -5,17 +5,12 @@ import pytest
 
 from models.exact import box_box
 from models.rotations import euler_to_matrix, euler_to_quaternion, matrix_to_quaternion
+from tests.models.helpers import assert_finite
 
 IDENTITY = [1.0, 0.0, 0.0, 0.0]
 TILTS = [0.0, 1e-15, 1e-12, 1e-9, 1e-6, 1e-3]
 #: Depth (metres) of the tilt scenarios: B (a 1 m cube) pressed 5 mm into A's top face.
 PRESS = 0.005
-
-
-def assert_finite(contacts):
-    for name, value in contacts.arrays().items():
-        if value.dtype.kind == "f":
-            assert np.isfinite(value).all(), name
 
 
 def expected_tilted_face_point(tilt, axis):

@@ -5,17 +5,12 @@ import pytest
 from models import box_features as bf
 from models.exact import InvalidBoxError, box_box
 from models.rotations import InvalidRotationError, euler_to_quaternion, matrix_to_quaternion
+from tests.models.helpers import assert_finite
 
 #: Absolute tolerance (metres) for hand-computed answers: a few ulps of the metre scale.
 HAND_TOL = 1e-12
 IDENTITY = [1.0, 0.0, 0.0, 0.0]
 SQRT2, SQRT3 = np.sqrt(2.0), np.sqrt(3.0)
-
-
-def assert_finite(contacts):
-    for name, value in contacts.arrays().items():
-        if value.dtype.kind == "f":
-            assert np.isfinite(value).all(), name
 
 
 def vertex_down_quaternion():
@@ -114,8 +109,8 @@ def test_concentric_boxes_resolve_the_tie_to_the_lowest_axis():
 
 
 def test_exactly_touching_is_colliding_with_zero_depth():
-    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [2, 2, 2], [[0.5, 0.25, 2.0], [0.5, 0.25, 2.0 + 1e-9]],
-                IDENTITY)
+    centres = [[0.5, 0.25, 2.0], [0.5, 0.25, 2.0 + 1e-9]]
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [2, 2, 2], centres, IDENTITY)
     assert c.colliding.tolist() == [True, False]
     assert c.depth.tolist() == [0.0, 0.0]
     np.testing.assert_allclose(c.point[0], [0.25, 0.125, 1.0], atol=HAND_TOL)
@@ -155,10 +150,11 @@ def test_batch_row_equals_single_call():
     for i in range(50):
         one = box_box([2, 1, 1.5], [0, 0, 0], IDENTITY, [1, 1, 1], pos[i], quat[i])
         for name, value in one.arrays().items():
-            np.testing.assert_allclose(value[0] if value.dtype.kind == "f" else value[0],
-                                       getattr(batch, name)[i], atol=1e-12, err_msg=name) \
-                if value.dtype.kind == "f" else np.testing.assert_array_equal(
-                    value[0], getattr(batch, name)[i], err_msg=name)
+            expected = getattr(batch, name)[i]
+            if value.dtype.kind == "f":
+                np.testing.assert_allclose(value[0], expected, atol=1e-12, err_msg=name)
+            else:
+                np.testing.assert_array_equal(value[0], expected, err_msg=name)
 
 
 @pytest.mark.parametrize("kwargs,field", [

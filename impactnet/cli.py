@@ -1,0 +1,230 @@
+"""The `impactnet` command line.
+
+    impactnet serve | datagen | train | sweep | evaluate | bench | reproduce-paper | contact
+
+This is the one module that may reach both `training` (torch) and `service` (fastapi), and it
+does so only lazily, inside the subcommand that needs them: `impactnet contact` must run in a
+runtime-only install, and `--help` must be instant. Nothing heavy (not even numpy) is imported at
+module level.
+
+Implemented now: `contact` (one exact box-box contact, printed as JSON) and `bench exact`. The
+other subcommands say which issue brings them and exit with status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import sys
+from collections.abc import Callable, Sequence
+
+EXIT_NOT_IMPLEMENTED = 2
+
+# Which issue brings each subcommand that does not exist yet.
+_PENDING = {
+    "serve": "issue 5, 'The HTTP/JSON service for the simulator'",
+    "datagen": "issue 3, 'Contact data generation, scenes, and the paper's Tables 1 and 2'",
+    "train": "issue 4, 'The learned predictors' (retraining jobs: issue 6)",
+    "sweep": "issue 6, 'Retraining jobs and sweeps'",
+    "evaluate": "issue 4, 'The learned predictors'",
+    "reproduce-paper": "issue 3, 'Contact data generation, scenes, and the paper's Tables 1 and 2'",
+    "bench": "issue 7, 'The speed-accuracy trade, measured: impactnet bench'",
+}
+
+# Default pair of `impactnet contact`: the paper's cubes (edge 2 m); B rests on A's top face,
+# offset sideways, 5 cm pushed in and tilted by 0.05 rad about the horizontal axis (1, 1, 0), so
+# one vertex of B dips into A's top face.
+_CUBE = [2.0, 2.0, 2.0]
+_TILT_RAD = 0.05
+_DEFAULT_QUATERNION_B = [
+    math.cos(_TILT_RAD / 2),
+    math.sin(_TILT_RAD / 2) / math.sqrt(2.0),
+    math.sin(_TILT_RAD / 2) / math.sqrt(2.0),
+    0.0,
+]
+
+
+def _not_implemented(name: str) -> Callable[[argparse.Namespace], int]:
+    def handler(args: argparse.Namespace) -> int:
+        print(f"impactnet {name}: not implemented yet: arrives with {_PENDING[name]}.",
+              file=sys.stderr)
+        return EXIT_NOT_IMPLEMENTED
+
+    handler.pending = True  # accepts (and ignores) any arguments, see main()
+    return handler
+
+
+# ----------------------------------------------------------------------------- contact
+
+
+def _cmd_contact(args: argparse.Namespace) -> int:
+    try:
+        from models.exact import box_box
+    except ImportError as exc:
+        print(f"impactnet contact: the exact solver is not available ({exc}).", file=sys.stderr)
+        return 1
+    contacts = box_box(
+        args.size_a, args.position_a, args.quaternion_a,
+        args.size_b, args.position_b, args.quaternion_b,
+    )
+    body = {
+        "input": {
+            "a": {"size": args.size_a, "position": args.position_a,
+                  "quaternion": args.quaternion_a},
+            "b": {"size": args.size_b, "position": args.position_b,
+                  "quaternion": args.quaternion_b},
+        },
+        **contact_row_to_json(contacts, 0),
+    }
+    print(dumps_compact(body))
+    return 0
+
+
+_NUMBER_LIST = re.compile(r"\[\s*([-+0-9.eE,\s]+?)\s*\]")
+
+
+def dumps_compact(body: dict) -> str:
+    """JSON indented by 2, with lists of numbers kept on one line."""
+    text = json.dumps(body, indent=2)
+    return _NUMBER_LIST.sub(
+        lambda m: "[" + ", ".join(part.strip() for part in m.group(1).split(",")) + "]", text
+    )
+
+
+def contact_row_to_json(contacts, i: int) -> dict:
+    """Row i of a `models.contacts.Contacts` as plain JSON types (valid manifold rows only)."""
+    count = int(contacts.manifold_count[i])
+    out = {
+        "predictor": str(contacts.predictor[i]) if contacts.predictor is not None else "exact",
+        "colliding": bool(contacts.colliding[i]),
+        "contact_type": str(contacts.contact_type[i]),
+        "normal": [float(v) for v in contacts.normal[i]],
+        "depth": float(contacts.depth[i]),
+        "point": [float(v) for v in contacts.point[i]],
+        "feature_a": int(contacts.feature_a[i]),
+        "feature_b": int(contacts.feature_b[i]),
+        "axis": int(contacts.axis[i]),
+        "manifold": {
+            "count": count,
+            "points": [[float(v) for v in p] for p in contacts.manifold_points[i, :count]],
+            "depths": [float(v) for v in contacts.manifold_depths[i, :count]],
+        },
+    }
+    try:  # readable feature names, where the feature module provides them
+        from models.box_features import feature_name
+
+        out["feature_a_name"] = str(feature_name(int(contacts.feature_a[i])))
+        out["feature_b_name"] = str(feature_name(int(contacts.feature_b[i])))
+    except Exception:  # noqa: BLE001 - names are a convenience, ids are the answer
+        pass
+    return out
+
+
+# ----------------------------------------------------------------------------- bench
+
+
+_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def pin_single_thread() -> bool:
+    """Ask BLAS / OpenMP for one thread. Returns False if numpy was already imported.
+
+    The benchmark measures one core. OpenBLAS, MKL and OpenMP read these variables once, when
+    their library is loaded, which happens when numpy is first imported; setting them afterwards
+    does nothing. So the bench path sets them before anything imports numpy.
+    """
+    for name in _THREAD_VARIABLES:
+        os.environ[name] = "1"
+    return "numpy" not in sys.modules
+
+
+def _cmd_bench_exact(args: argparse.Namespace) -> int:
+    # Must come first on this path: numpy is imported by training.bench_exact below.
+    if not pin_single_thread():
+        print("impactnet bench: warning: numpy was imported before the thread count was "
+              "pinned; BLAS may use several threads.", file=sys.stderr)
+    from training.bench_exact import run
+
+    return run(quick=args.quick, json_path=args.json, seed=args.seed)
+
+
+# ----------------------------------------------------------------------------- parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="impactnet",
+        description="Box-box contact (impact point, force direction, depth, contact type) for "
+                    "real-time simulation.",
+    )
+    from impactnet import __version__
+
+    parser.add_argument("--version", action="version", version=f"impactnet {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    for name, help_text in [
+        ("serve", "run the HTTP service (not implemented yet)"),
+        ("datagen", "generate first-contact datasets for a scene (not implemented yet)"),
+        ("train", "train the learned predictors of a scene (not implemented yet)"),
+        ("sweep", "hyper-parameter sweep with Optuna (not implemented yet)"),
+        ("evaluate", "evaluate a bundle on a held-out set (not implemented yet)"),
+    ]:
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.set_defaults(handler=_not_implemented(name))
+
+    bench = sub.add_parser("bench", help="benchmarks (implemented: 'bench exact')",
+                           description="Benchmarks. Implemented: 'exact'.")
+    bench.set_defaults(handler=_not_implemented("bench"))
+    bench_sub = bench.add_subparsers(dest="bench_command", metavar="BENCH")
+    exact = bench_sub.add_parser(
+        "exact", help="pairs/s of models.exact.box_box next to python-fcl, one thread",
+        description="Pairs/s and microseconds per pair of models.exact.box_box at N = 1, 1e3, "
+                    "1e5 on first-contact cube poses, next to python-fcl's Box-Box collide "
+                    "called in a Python loop over the same poses, on one thread.",
+    )
+    exact.add_argument("--quick", action="store_true", help="fewer repeats (a smoke run)")
+    exact.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    exact.add_argument("--seed", type=int, default=0, help="pose generator seed (default 0)")
+    exact.set_defaults(handler=_cmd_bench_exact)
+
+    rp = sub.add_parser("reproduce-paper", help="reproduce the paper's tables (not implemented "
+                        "yet)")
+    rp.set_defaults(handler=_not_implemented("reproduce-paper"))
+
+    contact = sub.add_parser(
+        "contact",
+        help="one exact box-box contact, printed as JSON",
+        description="Contact of two boxes by the exact solver (models.exact.box_box), as JSON. "
+                    "Units: metres; size = full edge lengths; quaternion = [w, x, y, z] "
+                    "(normalised on input); the normal points from A towards B. Defaults: two "
+                    "cubes of edge 2, B on A's top face, 5 cm deep, tilted by 0.05 rad.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    contact.add_argument("--size-a", nargs=3, type=float, default=_CUBE, metavar=("LX", "LY", "LZ"))
+    contact.add_argument("--position-a", nargs=3, type=float, default=[0.0, 0.0, 0.0],
+                         metavar=("X", "Y", "Z"))
+    contact.add_argument("--quaternion-a", nargs=4, type=float, default=[1.0, 0.0, 0.0, 0.0],
+                         metavar=("W", "X", "Y", "Z"))
+    contact.add_argument("--size-b", nargs=3, type=float, default=_CUBE, metavar=("LX", "LY", "LZ"))
+    contact.add_argument("--position-b", nargs=3, type=float, default=[0.5, 0.3, 1.95],
+                         metavar=("X", "Y", "Z"))
+    contact.add_argument("--quaternion-b", nargs=4, type=float, default=_DEFAULT_QUATERNION_B,
+                         metavar=("W", "X", "Y", "Z"))
+    contact.set_defaults(handler=_cmd_contact)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    # Subcommands that do not exist yet take any arguments, so that they always answer with the
+    # issue that brings them; every other subcommand parses strictly.
+    args, unknown = parser.parse_known_args(argv)
+    if unknown and not getattr(args.handler, "pending", False):
+        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    return args.handler(args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
