@@ -25,7 +25,6 @@ EXIT_NOT_IMPLEMENTED = 2
 # Which issue brings each subcommand that does not exist yet.
 _PENDING = {
     "serve": "issue 5, 'The HTTP/JSON service for the simulator'",
-    "datagen": "issue 3, 'Contact data generation, scenes, and the paper's Tables 1 and 2'",
     "train": "issue 4, 'The learned predictors' (retraining jobs: issue 6)",
     "sweep": "issue 6, 'Retraining jobs and sweeps'",
     "evaluate": "issue 4, 'The learned predictors'",
@@ -150,6 +149,27 @@ def _cmd_bench_exact(args: argparse.Namespace) -> int:
     return run(quick=args.quick, json_path=args.json, seed=args.seed)
 
 
+# ----------------------------------------------------------------------------- delegated
+
+# Subcommands whose arguments and work live in another module, as `add_arguments(parser)` and
+# `run(args) -> int`. Those modules import nothing heavy at module level (checked by the CLI
+# tests), so building the parser stays instant; the work itself imports lazily.
+_DELEGATED = {
+    "datagen": ("training.datagen_cli",
+                "generate labelled first-contact datasets for the pairs of a scene"),
+}
+
+
+def _add_delegated(sub) -> None:
+    import importlib
+
+    for name, (module_name, help_text) in _DELEGATED.items():
+        module = importlib.import_module(module_name)
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        module.add_arguments(p)
+        p.set_defaults(handler=module.run)
+
+
 # ----------------------------------------------------------------------------- parser
 
 
@@ -166,13 +186,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     for name, help_text in [
         ("serve", "run the HTTP service (not implemented yet)"),
-        ("datagen", "generate first-contact datasets for a scene (not implemented yet)"),
         ("train", "train the learned predictors of a scene (not implemented yet)"),
         ("sweep", "hyper-parameter sweep with Optuna (not implemented yet)"),
         ("evaluate", "evaluate a bundle on a held-out set (not implemented yet)"),
     ]:
         p = sub.add_parser(name, help=help_text, description=help_text)
         p.set_defaults(handler=_not_implemented(name))
+
+    _add_delegated(sub)
 
     bench = sub.add_parser("bench", help="benchmarks (implemented: 'bench exact')",
                            description="Benchmarks. Implemented: 'exact'.")
