@@ -1,0 +1,4 @@
+"""``python -m service``: the same as ``impactnet serve`` (see :mod:`service.cli`)."""
+from service.cli import main
+
+raise SystemExit(main())

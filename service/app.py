@@ -1,0 +1,96 @@
+"""``create_app(settings)``: the FastAPI application of impactnet.
+
+Lifespan: the scene and predictors are loaded and warmed up (one exact call) in a worker
+thread, in the background by default, so /healthz answers at once and /readyz says 503 until
+the state is installed; leaving the lifespan (shutdown) turns /readyz to 503 again.
+"""
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+
+from fastapi import FastAPI
+from fastapi.openapi.utils import get_openapi
+
+from impactnet import __version__
+from service import errors
+from service.middleware import BodyLimit, ConcurrencyLimit, RequestContext
+from service.predictors import ServingState
+from service.routers import batch, contact, health, metrics, models
+from service.runtime import Runtime
+from service.schemas import BatchRequest, ContactRequest
+from service.settings import Settings
+
+log = logging.getLogger("impactnet.service")
+
+DESCRIPTION = """
+Box-box contact for a real-time crane simulator: impact point, contact normal (from A towards
+B), penetration depth, contact type and features, from the exact separating-axis solver
+(mode `exact`; the learned modes `single`, `committee`, `auto` arrive with a learned bundle).
+
+Units: metres and radians. A body is `size` (full edge lengths) or a scene `object`, a
+`position` (centre, world frame) and exactly one orientation: `quaternion` [w, x, y, z]
+(normalised here), `matrix` (3x3 rows, v_world = R v_body) or `euler` (radians; `zyx` =
+[roll, pitch, yaw] with R = Rz(yaw) Ry(pitch) Rx(roll), or `xyz` = [a, b, c] with
+R = Rx(a) Ry(b) Rz(c)).
+
+Errors share one JSON envelope (`error`, `message`, `detail` naming the field, the reason and
+for batches the rows, `request_id`): 422 invalid input, 413 body or batch too large, 409 mode
+not served, 503 not ready / draining / overloaded (Retry-After), 415/406 media types.
+Every response carries `X-Request-ID` (yours if you sent a sane one); /v1 answers carry
+`X-Model-Version`.
+""" + batch.LAYOUT
+
+
+def _openapi(app: FastAPI):
+    """The generated schema plus the request models, which the routes parse themselves (the
+    batch with NumPy, the single pair with pydantic's JSON parser), so FastAPI does not add
+    them by itself."""
+    def build() -> dict:
+        if app.openapi_schema is None:
+            schema = get_openapi(title=app.title, version=app.version,
+                                 description=app.description, routes=app.routes)
+            components = schema.setdefault("components", {}).setdefault("schemas", {})
+            for model in (ContactRequest, BatchRequest):
+                extra = model.model_json_schema(ref_template="#/components/schemas/{model}")
+                components.update(extra.pop("$defs", {}))
+                components[model.__name__] = extra
+            app.openapi_schema = schema
+        return app.openapi_schema
+    return build
+
+
+def create_app(settings: Settings | None = None, state: ServingState | None = None) -> FastAPI:
+    """The application. ``state``: an already built serving state (the CLI builds it first to
+    fail fast on a bad scene); otherwise the lifespan builds it from ``settings``."""
+    settings = settings or Settings()
+    runtime = Runtime(settings)
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI):
+        runtime.draining = False  # a (re)start serves again; test clients re-enter it
+        task = asyncio.create_task(runtime.load(state))
+        if not settings.load_in_background:
+            await task
+        try:
+            yield
+        finally:
+            runtime.begin_drain()
+            if not task.done():
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
+
+    app = FastAPI(title="impactnet", version=__version__, description=DESCRIPTION,
+                  lifespan=lifespan)
+    app.state.runtime = runtime
+    errors.install(app)
+    for module in (contact, batch, models, health, metrics):
+        app.include_router(module.router)
+    # add_middleware prepends: the last one added is the outermost.
+    app.add_middleware(ConcurrencyLimit, runtime=runtime)
+    app.add_middleware(BodyLimit, runtime=runtime)
+    app.add_middleware(RequestContext, runtime=runtime)
+    app.openapi = _openapi(app)
+    return app

@@ -1,0 +1,249 @@
+"""HTTP benchmark of the service on loopback (a script, not a test).
+
+    python -m service.bench_http [--quick] [--json PATH] [--access-log]
+
+(Run it as a module: ``python service/bench_http.py`` would put service/ first on sys.path,
+where service/logging.py shadows the standard library's logging.)
+
+One uvicorn worker per server process, started here on free loopback ports; one keep-alive
+client (:class:`service.client.ImpactClient`, the simulator's client) issues requests one
+after another. Measured in the same run:
+
+* floor: a bare ASGI echo app on the same uvicorn (same event loop and HTTP parser, no
+  FastAPI, no middleware) answering the same requests: what HTTP on loopback costs by itself;
+* ``POST /v1/contact``: latency percentiles over single pairs;
+* ``POST /v1/contact/batch`` with 100,000 pairs end to end (client encoding, transfer, server
+  validation + exact solver + encoding, client decoding to NumPy arrays) as JSON and as npz,
+  beside the echo of the same request bytes and the exact solver alone in this process.
+
+Goals (issue 5): contact p50 <= 1 ms, p99 <= 3 ms; 100k batch <= 2 s JSON, <= 0.2 s binary.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import os
+import platform
+import socket
+import subprocess
+import sys
+import time
+
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import numpy as np  # noqa: E402 - after pinning the BLAS thread count
+
+from service.client import ImpactClient  # noqa: E402
+
+PAIR = {"a": {"object": "cube", "position": [0.0, 0.0, 0.0], "quaternion": [1.0, 0, 0, 0]},
+        "b": {"object": "cube", "position": [0.5, 0.3, 1.95], "euler": [0.05, 0.0, 0.0]}}
+
+
+# ------------------------------------------------------------------------- echo server
+
+
+async def echo_app(scope, receive, send):
+    """The floor: read the whole body, send it back (200, application/octet-stream)."""
+    if scope["type"] == "lifespan":
+        while True:
+            message = await receive()
+            if message["type"] == "lifespan.startup":
+                await send({"type": "lifespan.startup.complete"})
+            elif message["type"] == "lifespan.shutdown":
+                await send({"type": "lifespan.shutdown.complete"})
+                return
+    chunks, more = [], True
+    while more:
+        message = await receive()
+        chunks.append(message.get("body", b""))
+        more = message.get("more_body", False)
+    body = b"".join(chunks) or b"{}"
+    await send({"type": "http.response.start", "status": 200,
+                "headers": [(b"content-type", b"application/octet-stream"),
+                            (b"content-length", str(len(body)).encode())]})
+    await send({"type": "http.response.body", "body": body})
+
+
+def _serve_echo(port: int) -> None:
+    import uvicorn
+
+    uvicorn.run(echo_app, host="127.0.0.1", port=port, log_level="warning", access_log=False,
+                timeout_keep_alive=30)
+
+
+# ------------------------------------------------------------------------- processes
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def _process(args: list[str], port: int, ready_path: str):
+    proc = subprocess.Popen([sys.executable, *args], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    try:
+        client = ImpactClient(f"http://127.0.0.1:{port}")
+        deadline = time.monotonic() + 60
+        while True:
+            with contextlib.suppress(OSError):
+                if client.request("GET", ready_path)[0] == 200:
+                    break
+            if proc.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"server {args} did not start")
+            time.sleep(0.05)
+        client.close()
+        yield
+    finally:
+        proc.terminate()
+        proc.wait(30)
+
+
+# ------------------------------------------------------------------------- measurements
+
+
+def _percentiles(seconds: list[float]) -> dict:
+    ms = np.asarray(seconds) * 1e3
+    return {"n": len(ms), "p50_ms": float(np.percentile(ms, 50)),
+            "p90_ms": float(np.percentile(ms, 90)), "p99_ms": float(np.percentile(ms, 99)),
+            "mean_ms": float(ms.mean()), "max_ms": float(ms.max())}
+
+
+def _latency(call, n: int, warmup: int) -> dict:
+    for _ in range(warmup):
+        call()
+    times = []
+    for _ in range(n):
+        start = time.perf_counter()
+        call()
+        times.append(time.perf_counter() - start)
+    return _percentiles(times)
+
+
+def poses(n: int, seed: int = 0) -> dict:
+    """N cube pairs around contact (about half touching), as batch columns."""
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(2, n, 4))
+    q /= np.linalg.norm(q, axis=2, keepdims=True)
+    direction = rng.normal(size=(n, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    return {"a_size": np.full((n, 3), 2.0), "a_position": np.zeros((n, 3)), "a_quaternion": q[0],
+            "b_size": np.full((n, 3), 2.0),
+            "b_position": direction * rng.uniform(1.9, 3.0, size=(n, 1)), "b_quaternion": q[1]}
+
+
+def _timed(call, repeats: int) -> dict:
+    call()  # warm-up (first-call costs, buffers)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        call()
+        times.append(time.perf_counter() - start)
+    return {"repeats": repeats, "median_s": float(np.median(times)), "min_s": float(min(times))}
+
+
+def run(quick: bool = False, json_path: str | None = None, access_log: bool = False) -> int:
+    n_single, warmup = (500, 100) if quick else (5000, 500)
+    repeats = 2 if quick else 5
+    n_batch = 100_000
+    echo_port, service_port = _free_port(), _free_port()
+    service_args = ["-m", "service", "--port", str(service_port)]
+    if not access_log:  # access lines are info: with them on, keep the info level
+        service_args += ["--no-access-log", "--log-level", "warning"]
+    columns = poses(n_batch)
+    single_body = json.dumps(PAIR).encode()
+    results: dict = {"access_log": access_log, "machine": {"python": platform.python_version(),
+                                 "cpus": os.cpu_count(), "platform": platform.platform(),
+                                 "load_avg_1m": os.getloadavg()[0]}}
+
+    from models.exact import box_box
+
+    results["solver_only_100k"] = _timed(lambda: box_box(*(columns[k] for k in (
+        "a_size", "a_position", "a_quaternion", "b_size", "b_position", "b_quaternion"))),
+        repeats)
+
+    with _process(["-c", f"from service.bench_http import _serve_echo; _serve_echo({echo_port})"],
+                  echo_port, "/"), \
+            _process(service_args, service_port, "/readyz"):
+        echo = ImpactClient(f"http://127.0.0.1:{echo_port}")
+        api = ImpactClient(f"http://127.0.0.1:{service_port}")
+        headers = {"Content-Type": "application/json"}
+        results["echo_single"] = _latency(
+            lambda: echo.request("POST", "/", single_body, headers), n_single, warmup)
+        results["contact"] = _latency(
+            lambda: api.request("POST", "/v1/contact", single_body, headers), n_single, warmup)
+        results["contact_client"] = _latency(lambda: api.contact(PAIR["a"], PAIR["b"]),
+                                              n_single, warmup)
+        results["healthz"] = _latency(lambda: api.request("GET", "/healthz"), n_single, warmup)
+
+        import io
+
+        import orjson
+
+        json_bytes = orjson.dumps(columns, option=orjson.OPT_SERIALIZE_NUMPY)
+        buffer = io.BytesIO()
+        np.savez(buffer, **columns)
+        npz_bytes = buffer.getvalue()
+        results["batch_sizes_bytes"] = {"json_request": len(json_bytes),
+                                        "npz_request": len(npz_bytes)}
+        results["echo_batch_json"] = _timed(
+            lambda: echo.request("POST", "/", json_bytes, headers), repeats)
+        results["echo_batch_npz"] = _timed(
+            lambda: echo.request("POST", "/", npz_bytes, {"Content-Type": "application/x-npz"}),
+            repeats)
+        results["batch_json"] = _timed(lambda: api.batch(columns, binary=False), repeats)
+        results["batch_npz"] = _timed(lambda: api.batch(columns, binary=True), repeats)
+        echo.close()
+        api.close()
+
+    _report(results, n_batch)
+    if json_path:
+        with open(json_path, "w") as f:
+            json.dump(results, f, indent=2)
+    return 0
+
+
+def _report(r: dict, n_batch: int) -> None:
+    m = r["machine"]
+    print(f"impactnet HTTP bench: Python {m['python']}, {m['cpus']} CPUs, load avg "
+          f"{m['load_avg_1m']:.2f} (a shared machine: figures vary with its load); server "
+          f"access log {'on' if r['access_log'] else 'off'}\n")
+    print("| request (one keep-alive client, loopback) | p50 ms | p90 ms | p99 ms | mean ms |")
+    print("|---|---|---|---|---|")
+    for key, label in (("echo_single", "floor: bare uvicorn echo, same body"),
+                       ("healthz", "GET /healthz"),
+                       ("contact", "POST /v1/contact (raw request)"),
+                       ("contact_client", "POST /v1/contact (ImpactClient.contact)")):
+        s = r[key]
+        print(f"| {label} | {s['p50_ms']:.3f} | {s['p90_ms']:.3f} | {s['p99_ms']:.3f} | "
+              f"{s['mean_ms']:.3f} |")
+    print(f"\n| {n_batch:,} pairs, end to end | median s | min s |")
+    print("|---|---|---|")
+    for key, label in (("solver_only_100k", "exact solver alone, in process"),
+                       ("echo_batch_json", "floor: echo of the JSON request "
+                        f"({r['batch_sizes_bytes']['json_request'] / 1e6:.1f} MB)"),
+                       ("batch_json", "batch as JSON (ImpactClient.batch binary=False)"),
+                       ("echo_batch_npz", "floor: echo of the npz request "
+                        f"({r['batch_sizes_bytes']['npz_request'] / 1e6:.1f} MB)"),
+                       ("batch_npz", "batch as npz (ImpactClient.batch binary=True)")):
+        s = r[key]
+        print(f"| {label} | {s['median_s']:.3f} | {s['min_s']:.3f} |")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m service.bench_http",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="fewer requests (a smoke run)")
+    parser.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    parser.add_argument("--access-log", action="store_true",
+                        help="keep the server's JSON access log on (to /dev/null)")
+    args = parser.parse_args(argv)
+    return run(quick=args.quick, json_path=args.json, access_log=args.access_log)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

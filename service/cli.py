@@ -1,0 +1,96 @@
+"""``impactnet serve``: ``add_arguments(parser)`` and ``run(args) -> int``.
+
+Nothing heavy is imported at module level (``impactnet --help`` stays instant): uvicorn and
+the app are imported inside :func:`run`. Flags override ``IMPACTNET_*`` environment variables
+(see :class:`service.settings.Settings`); the admin token is read from the environment only
+(a flag would show in ``ps``).
+
+Shutdown: the first SIGTERM / SIGINT turns /readyz to 503 at once, waits ``drain_delay_s``
+(0 by default) so that a load balancer can take the replica out, then uvicorn stops
+accepting, lets in-flight requests finish (up to ``graceful_timeout_s``) and exits; ``run``
+returns 0. A second signal forces the exit.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+EXIT_CONFIG = 2
+
+# (flag, settings field, type, help)
+_FLAGS = [
+    ("--host", "host", str, "interface to bind (default 127.0.0.1; 0.0.0.0 in a container)"),
+    ("--port", "port", int, "TCP port (default 8000; 0 picks a free one)"),
+    ("--scene", "scene", str, "scene name or TOML path (default quay_crane; '' for none)"),
+    ("--bundle", "bundle", str, "learned bundle path (not served yet: exact only)"),
+    ("--default-mode", "default_mode", str, "mode of requests that name none (default exact)"),
+    ("--max-body-bytes", "max_body_bytes", int, "largest request body (default 64 MiB)"),
+    ("--max-batch-pairs", "max_batch_pairs", int, "largest batch (default 100000)"),
+    ("--max-concurrency", "max_concurrency", int, "most /v1 requests in flight (default 64)"),
+    ("--log-level", "log_level", str, "debug, info, warning, error (default info)"),
+    ("--graceful-timeout", "graceful_timeout_s", float,
+     "seconds to let in-flight requests finish on shutdown (default 30)"),
+    ("--drain-delay", "drain_delay_s", float,
+     "seconds between SIGTERM (readyz 503) and closing the socket (default 0)"),
+]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the serve flags to ``parser`` (every default None: Settings decides)."""
+    for flag, dest, kind, text in _FLAGS:
+        parser.add_argument(flag, dest=dest, type=kind, default=None, help=text)
+    parser.add_argument("--no-access-log", dest="access_log", action="store_false",
+                        default=None, help="no JSON access-log line per request")
+
+
+def settings_from(args: argparse.Namespace):
+    from service.settings import Settings
+
+    overrides = {dest: getattr(args, dest, None) for _, dest, _, _ in _FLAGS}
+    overrides["access_log"] = getattr(args, "access_log", None)
+    return Settings(**{k: v for k, v in overrides.items() if v is not None})
+
+
+def run(args: argparse.Namespace) -> int:
+    """Serve until SIGTERM / SIGINT; 0 after a graceful shutdown, 2 for a bad configuration."""
+    from pydantic import ValidationError
+
+    try:
+        settings = settings_from(args)
+    except ValidationError as exc:
+        print(f"impactnet serve: invalid setting: {exc}", file=sys.stderr)
+        return EXIT_CONFIG
+
+    import uvicorn
+
+    from service import logging as service_logging
+    from service.app import create_app
+    from service.predictors import BundleNotSupported, build_state
+    from service.scene import SceneLoadError
+    from service.server import Server
+
+    try:  # fail fast, before binding, on a scene or bundle that cannot load
+        state = build_state(settings.scene, settings.bundle)
+    except (SceneLoadError, BundleNotSupported) as exc:
+        print(f"impactnet serve: {exc}", file=sys.stderr)
+        return EXIT_CONFIG
+    service_logging.configure(settings.log_level)
+    app = create_app(settings, state=state)
+    config = uvicorn.Config(
+        app, host=settings.host, port=settings.port, log_config=None, access_log=False,
+        log_level=settings.log_level, timeout_graceful_shutdown=settings.graceful_timeout_s,
+        timeout_keep_alive=settings.keepalive_timeout_s, server_header=False,
+        lifespan="on", proxy_headers=False)
+    server = Server(config, app.state.runtime)
+    server.run()
+    return 0 if server.started else 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m service``: the same as ``impactnet serve``."""
+    parser = argparse.ArgumentParser(prog="python -m service",
+                                     description="Serve impactnet over HTTP.")
+    add_arguments(parser)
+    return run(parser.parse_args(argv))
+
+

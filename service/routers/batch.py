@@ -1,0 +1,125 @@
+"""POST /v1/contact/batch: N pairs, columnar JSON or npz in and out."""
+from __future__ import annotations
+
+from typing import Annotated
+
+import numpy as np
+from fastapi import APIRouter, Query, Request
+from pydantic import ValidationError
+from starlette.concurrency import run_in_threadpool
+from starlette.responses import Response
+
+from service import columns as col
+from service.deps import RuntimeDep, ServingDep
+from service.errors import InputError, ServiceError, validation_items
+from service.pairs import PAPER_ANGLES_AVAILABLE, predict_checked
+from service.predictors import ServingState
+from service.routers import ERRORS
+from service.runtime import Runtime
+from service.schemas import BatchOptions, BatchResponse, EulerConvention, Include, Mode
+
+router = APIRouter(tags=["contact"])
+
+LAYOUT = """
+**Binary layout** (`Content-Type: application/x-npz` request, `Accept: application/x-npz`
+answer; either may be JSON while the other is npz). A NumPy `.npz` archive (zip of `.npy`
+members, as written by `numpy.savez`; deflated members are accepted), read with
+`allow_pickle=False`: object arrays are refused. Request members are the JSON columns
+(`a_size`, `a_object`, `a_position`, `a_quaternion` | `a_matrix` | `a_euler`, same for `b_`),
+numbers of any integer or float dtype (converted to float64), names as unicode (`<U`) arrays;
+options go in the query string (`?mode=exact&include=manifold`). Answer members:
+`colliding` bool (N,), `point` and `normal` `<f8` (N, 3), `depth` and `confidence` `<f8` (N,),
+`contact_type_code` int8 (N,) indexing `contact_type_names` (`<U`, 7), `feature_a`,
+`feature_b`, `axis` int8 (N,), `predictor_code` int8 (N,) indexing `predictor_names`,
+`mode` and `model_version` (0-d `<U`); with include=manifold `manifold_count` int8 (N,),
+`manifold_points` `<f8` (N, 8, 3), `manifold_depths` `<f8` (N, 8); with include=paper_angles
+`paper_angles` `<f8` (N, 4), NaN rows where there is no contact.
+"""
+
+_REQUEST_BODY = {
+    "required": True,
+    "content": {
+        col.JSON: {"schema": {"$ref": "#/components/schemas/BatchRequest"}},
+        col.NPZ: {"schema": {"type": "string", "format": "binary"}},
+    },
+}
+
+
+def _media_type(value: str | None) -> str:
+    return (value or "").split(";", 1)[0].strip().lower()
+
+
+def _response_type(accept: str | None) -> str:
+    """npz when the client accepts it, JSON when it accepts JSON or anything; else 406."""
+    kinds = {_media_type(part) for part in (accept or "*/*").split(",")}
+    if col.NPZ in kinds:
+        return col.NPZ
+    if kinds & {col.JSON, "*/*", "application/*", ""} or any(k.endswith("+json") for k in kinds):
+        return col.JSON
+    raise ServiceError(406, "not_acceptable", f"cannot answer as {accept!r}; accepted: "
+                       f"{col.JSON}, {col.NPZ}")
+
+
+def _options(query: dict, body: dict) -> BatchOptions:
+    both = sorted(k for k in body if query.get(k) not in (None, []))
+    if both:
+        raise InputError(both[0], "given both in the query string and in the body")
+    merged = {**{k: v for k, v in query.items() if v not in (None, [])}, **body}
+    try:
+        return BatchOptions.model_validate(merged)
+    except ValidationError as exc:
+        first = validation_items(exc.errors())[0]
+        raise InputError(first["field"], first["reason"], type_=first["type"]) from exc
+
+
+def _score(body: bytes, binary_in: bool, answer_type: str, query: dict, state: ServingState,
+           runtime: Runtime) -> tuple[bytes, int]:
+    settings = runtime.settings
+    if binary_in:
+        columns, body_options = col.parse_npz(body, settings.max_body_bytes), {}
+    else:
+        columns, body_options = col.parse_json(body)
+    options = _options(query, body_options)
+    mode = options.mode or settings.default_mode
+    predictor = state.predictor(mode)
+    if "paper_angles" in options.include and not PAPER_ANGLES_AVAILABLE:
+        raise InputError("include", "paper_angles is not available in this build")
+    pairs = col.batch_pairs(columns, state.scene, options.euler_convention,
+                            settings.max_batch_pairs)
+    contacts = predict_checked(predictor, pairs)
+    arrays = col.answer_arrays(contacts, pairs, options.include)
+    counts = np.bincount(arrays["predictor_code"], minlength=len(arrays["predictor_names"]))
+    runtime.metrics.record_predictions(mode, dict(zip(arrays["predictor_names"].tolist(),
+                                                      counts.tolist(), strict=True)))
+    runtime.metrics.batch_size.observe(len(pairs))
+    encode = col.encode_npz if answer_type == col.NPZ else col.encode_json
+    return encode(arrays, mode, state.model_version), len(pairs)
+
+
+@router.post(
+    "/v1/contact/batch", response_model=None, summary="Contacts of N box pairs",
+    openapi_extra={"requestBody": _REQUEST_BODY},
+    responses={200: {"model": BatchResponse, "content": {
+        col.NPZ: {"schema": {"type": "string", "format": "binary"}}}},
+        406: {"description": "Accept names neither JSON nor npz."},
+        415: {"description": "Content-Type is neither JSON nor npz."}, **ERRORS},
+    description="Columnar batch: every column holds one value (broadcast) or an array of N; "
+    "the answer has one entry per pair in every column. Validation, scoring and encoding are "
+    "vectorised (no Python loop over pairs) and run in a worker thread.\n" + LAYOUT)
+async def batch(
+    request: Request, runtime: RuntimeDep, state: ServingDep,
+    mode: Annotated[Mode | None, Query(description="Instead of the body's `mode`.")] = None,
+    include: Annotated[list[Include] | None, Query(description="Optional outputs.")] = None,
+    euler_convention: Annotated[EulerConvention | None, Query()] = None,
+) -> Response:
+    content_type = _media_type(request.headers.get("content-type"))
+    if content_type not in ("", col.JSON, col.NPZ) and not content_type.endswith("+json"):
+        raise ServiceError(415, "unsupported_media_type", f"Content-Type {content_type!r}; "
+                           f"send {col.JSON} or {col.NPZ}")
+    answer_type = _response_type(request.headers.get("accept"))
+    body = await request.body()  # streamed in under the BodyLimit middleware
+    query = {"mode": mode, "include": include, "euler_convention": euler_convention}
+    payload, _ = await run_in_threadpool(_score, body, content_type == col.NPZ, answer_type,
+                                         query, state, runtime)
+    return Response(payload, media_type=answer_type,
+                    headers={"X-Model-Version": state.model_version})

@@ -1,0 +1,34 @@
+"""GET /healthz (alive) and GET /readyz (ready to serve: loaded, warm, not draining)."""
+from __future__ import annotations
+
+import orjson
+from fastapi import APIRouter
+from starlette.responses import Response
+
+from service.deps import RuntimeDep
+from service.schemas import HealthResponse, ReadyResponse
+
+router = APIRouter(tags=["health"])
+
+
+@router.get("/healthz", response_model=HealthResponse, summary="Liveness")
+async def healthz() -> HealthResponse:
+    """200 while the process and its event loop answer."""
+    return HealthResponse(status="ok")
+
+
+@router.get("/readyz", response_model=None, summary="Readiness",
+            responses={200: {"model": ReadyResponse},
+                       503: {"model": ReadyResponse, "description": "Loading, load failed, "
+                             "or draining for shutdown (Retry-After)."}})
+async def readyz(runtime: RuntimeDep) -> Response:
+    """200 once the scene and predictors are loaded and warmed up; 503 before that and from
+    the moment a shutdown begins."""
+    state = runtime.serving
+    version = state.model_version if state is not None else None
+    if runtime.ready:
+        return Response(orjson.dumps({"ready": True, "model_version": version}),
+                        media_type="application/json")
+    body = {"ready": False, "reason": runtime.not_ready_reason(), "model_version": version}
+    return Response(orjson.dumps(body), status_code=503, media_type="application/json",
+                    headers={"Retry-After": str(runtime.settings.retry_after_s)})

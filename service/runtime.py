@@ -1,0 +1,100 @@
+"""The app's mutable runtime: settings, metrics, the current ServingState, readiness, draining.
+
+Readiness: not ready until the state is loaded and warmed up (:meth:`Runtime.load`), not ready
+again from the moment a shutdown begins (:meth:`Runtime.begin_drain`, called on SIGTERM by
+:class:`service.cli.Server` before uvicorn stops accepting, and by the lifespan's exit).
+"""
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from importlib.metadata import PackageNotFoundError, version
+
+from service.metrics import Metrics
+from service.predictors import ServingState, build_state, warm_up
+from service.settings import Settings
+
+log = logging.getLogger("impactnet.service")
+
+
+def package_versions() -> dict[str, str]:
+    out = {}
+    for name in ("impactnet", "numpy", "fastapi", "pydantic", "uvicorn", "starlette"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = "unknown"
+    return out
+
+
+class Runtime:
+    """State shared by the middleware and the routers of one app."""
+
+    def __init__(self, settings: Settings, metrics: Metrics | None = None) -> None:
+        self.settings = settings
+        self.metrics = metrics or Metrics()
+        self.serving: ServingState | None = None  # replaced atomically, never mutated
+        self.warm = False  # the current state passed warm-up
+        self.draining = False
+        self.load_error: str | None = None
+        self.started_at = time.time()
+        self.versions = package_versions()
+
+    # ------------------------------------------------------------------ readiness
+
+    @property
+    def ready(self) -> bool:
+        return self.serving is not None and self.warm and not self.draining
+
+    def not_ready_reason(self) -> str | None:
+        if self.draining:
+            return "draining: the server is shutting down"
+        if self.load_error:
+            return f"loading failed: {self.load_error}"
+        if self.serving is None or not self.warm:
+            return "loading: scene and predictors are being loaded and warmed up"
+        return None
+
+    def begin_drain(self) -> None:
+        if not self.draining:
+            self.draining = True
+            self.metrics.ready.set(0)
+            log.info("draining: /readyz now answers 503")
+
+    # ------------------------------------------------------------------ loading
+
+    def install(self, state: ServingState) -> None:
+        """Make ``state`` the one new requests use (one reference assignment: atomic)."""
+        old = self.serving
+        self.serving = state
+        if old is not None:
+            self.metrics.model_info.remove(*self._info_labels(old))
+        self.metrics.model_info.labels(*self._info_labels(state)).set(1)
+
+    @staticmethod
+    def _info_labels(state: ServingState) -> tuple[str, ...]:
+        return (state.model_version, state.scene.name or "", state.scene.hash or "",
+                ",".join(state.modes))
+
+    def _build(self, prebuilt: ServingState | None) -> ServingState:
+        state = prebuilt or build_state(self.settings.scene, self.settings.bundle)
+        warm_up(state)
+        return state
+
+    async def load(self, prebuilt: ServingState | None = None) -> None:
+        """Load (unless ``prebuilt``) and warm up in a worker thread, then install."""
+        started = time.perf_counter()
+        try:
+            state = await asyncio.to_thread(self._build, prebuilt)
+        except Exception as exc:  # noqa: BLE001 - reported by /readyz and the log
+            self.load_error = f"{type(exc).__name__}: {exc}"
+            log.error("loading failed", extra={"error": self.load_error})
+            return
+        self.install(state)
+        self.warm = True
+        self.metrics.ready.set(0 if self.draining else 1)
+        log.info("ready", extra={"model_version": state.model_version,
+                                 "scene": state.scene.name, "modes": state.modes,
+                                 "scene_note": state.scene_note,
+                                 "seconds": round(time.perf_counter() - started, 3)})

@@ -1,0 +1,108 @@
+"""The scene as the service sees it: object names -> box sizes, looked up without Python loops.
+
+Wraps :func:`models.scenes.load_scene` (``Scene.name``, ``Scene.bodies``: Body(name, size),
+``Scene.pairs``: BodyPair(a, b), ``Scene.hash()``). A server started without a scene
+(``scene=None``) accepts raw sizes only; a request that names an object then gets a 422 that
+says so.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class SceneLoadError(RuntimeError):
+    """The configured scene cannot be loaded (unknown name, bad file)."""
+
+
+class ScenesUnavailable(SceneLoadError):
+    """This build has no scenes module (``models.scenes``): only raw sizes can be served."""
+
+
+@dataclass(frozen=True, eq=False)
+class SceneView:
+    """Immutable lookup table of a scene's bodies."""
+
+    name: str | None  # scene name, None when serving without a scene
+    hash: str | None  # Scene.hash() of the loaded scene
+    object_names: tuple[str, ...] = ()  # sorted body names
+    sizes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (k, 3) metres
+    pairs: tuple[tuple[str, str], ...] = ()  # (a, b) names of the pairs that can collide
+
+    def __post_init__(self) -> None:
+        self.sizes.setflags(write=False)
+        object.__setattr__(self, "_index", {n: i for i, n in enumerate(self.object_names)})
+
+    def size_of(self, name: str) -> list[float] | None:
+        """Full edge lengths of one named object, or None if the scene has no such body."""
+        i = self._index.get(name)
+        return None if i is None else self.sizes[i].tolist()
+
+    def index_of(self, name: str | None) -> int:
+        """Index of one object name into :attr:`object_names`; -1 for None or unknown."""
+        return -1 if name is None else self._index.get(name, -1)
+
+    def lookup(self, names: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Indices into :attr:`object_names` of an array of names; -1 where unknown.
+
+        Returns ``(index (n,), unknown_rows)``. Loops over distinct names only.
+        """
+        names = np.asarray(names)
+        unique, inverse = np.unique(names, return_inverse=True)
+        table = np.array([self._index.get(str(u), -1) for u in unique], dtype=np.int64)
+        index = table[inverse.reshape(-1)]
+        return index, np.flatnonzero(index < 0)
+
+    def describe(self) -> dict:
+        return {
+            "name": self.name,
+            "hash": self.hash,
+            "objects": {n: s for n, s in zip(self.object_names, self.sizes.tolist(), strict=True)},
+            "pairs": [list(p) for p in self.pairs],
+        }
+
+
+EMPTY_SCENE = SceneView(name=None, hash=None)
+
+
+def _bodies_of(scene) -> dict:
+    """name -> size of ``scene.bodies`` (a tuple of Body, or a name -> Body mapping)."""
+    bodies = scene.bodies
+    items = bodies.values() if isinstance(bodies, dict) else bodies
+    return {str(b.name): b.size for b in items}
+
+
+def view_of(scene) -> SceneView:
+    """A :class:`SceneView` of a ``models.scenes.Scene``."""
+    bodies = _bodies_of(scene)
+    names = tuple(sorted(bodies))
+    sizes = np.array([np.asarray(bodies[n], dtype=np.float64).reshape(3) for n in names],
+                     dtype=np.float64).reshape(-1, 3)
+    pairs = tuple((str(p.a), str(p.b)) for p in scene.pairs)
+    return SceneView(name=str(scene.name), hash=str(scene.hash()), object_names=names,
+                     sizes=sizes, pairs=pairs)
+
+
+def load_scene_view(name_or_path: str | None) -> SceneView:
+    """Load the configured scene; ``None`` or ``""`` gives the empty scene.
+
+    Raises
+    ------
+    ScenesUnavailable
+        ``models.scenes`` cannot be imported.
+    SceneLoadError
+        The scene cannot be loaded.
+    """
+    if not name_or_path:
+        return EMPTY_SCENE
+    try:
+        from models.scenes import load_scene
+    except ImportError as exc:
+        raise ScenesUnavailable(f"cannot load scene {name_or_path!r}: models.scenes is not "
+                             f"available ({exc})") from exc
+    try:
+        scene = load_scene(name_or_path)
+    except Exception as exc:  # noqa: BLE001 - any scene error becomes one clear message
+        raise SceneLoadError(f"cannot load scene {name_or_path!r}: {exc}") from exc
+    return view_of(scene)

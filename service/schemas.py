@@ -1,0 +1,251 @@
+"""Request and response schemas of the HTTP API (pydantic v2), apart from the logic.
+
+Numbers are strict: a JSON string ("1.0", "NaN") is not a number, NaN and +-Infinity are
+rejected (``allow_inf_nan=False``), unknown keys are rejected. Coordinates and sizes are
+bounded to the range the exact solver is tested on (:data:`POSITION_MAX_M`,
+:data:`SIZE_MIN_M`, :data:`SIZE_MAX_M`), so every accepted input has a finite answer.
+
+The batch endpoint parses its columns with NumPy (:mod:`service.columns`), not with these
+models: :class:`BatchRequest` documents its JSON body in the OpenAPI schema and is checked
+against that parser by the tests.
+"""
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from models.contacts import CONTACT_TYPES
+
+#: Largest accepted |coordinate| of a position, metres (1e6 km: any simulated world).
+POSITION_MAX_M = 1e9
+#: Smallest and largest accepted edge length, metres (1 um to 1000 km). The exact solver loses
+#: finiteness far outside this range (sizes near 1e-300 or 1e300).
+SIZE_MIN_M = 1e-6
+SIZE_MAX_M = 1e6
+#: Largest accepted |component| of a quaternion / Euler angle (radians); quaternions are
+#: normalised, so the scale carries no meaning, but it must not overflow.
+ANGLE_MAX = 1e6
+#: Longest scene object name.
+OBJECT_NAME_MAX = 64
+
+Mode = Literal["exact", "single", "committee", "auto"]
+Include = Literal["manifold", "paper_angles"]
+EulerConvention = Literal["zyx", "xyz"]
+ContactType = Literal[CONTACT_TYPES]  # type: ignore[valid-type]
+
+Coordinate = Annotated[float, Field(ge=-POSITION_MAX_M, le=POSITION_MAX_M)]
+Edge = Annotated[float, Field(ge=SIZE_MIN_M, le=SIZE_MAX_M)]
+Component = Annotated[float, Field(ge=-ANGLE_MAX, le=ANGLE_MAX)]
+Vec3 = Annotated[list[Coordinate], Field(min_length=3, max_length=3)]
+Size3 = Annotated[list[Edge], Field(min_length=3, max_length=3)]
+Quaternion = Annotated[list[Component], Field(min_length=4, max_length=4)]
+Euler = Annotated[list[Component], Field(min_length=3, max_length=3)]
+MatrixRow = Annotated[list[Component], Field(min_length=3, max_length=3)]
+Matrix = Annotated[list[MatrixRow], Field(min_length=3, max_length=3)]
+ObjectName = Annotated[str, Field(min_length=1, max_length=OBJECT_NAME_MAX)]
+
+_STRICT = ConfigDict(strict=True, allow_inf_nan=False, extra="forbid")
+_ORIENTATIONS = ("quaternion", "matrix", "euler")
+
+
+class Body(BaseModel):
+    """One box: a scene object or a raw size, a position, exactly one orientation."""
+
+    model_config = _STRICT
+
+    object: ObjectName | None = Field(None, description="Name of a body of the served scene "
+                                      "(GET /v1/models lists them); instead of `size`.")
+    size: Size3 | None = Field(None, description="Full edge lengths [lx, ly, lz], metres.")
+    position: Vec3 = Field(description="Centre in the world frame, metres.")
+    quaternion: Quaternion | None = Field(None, description="[w, x, y, z], normalised here.")
+    matrix: Matrix | None = Field(None, description="3x3 rotation matrix, rows "
+                                  "(v_world = R v_body); max |R^T R - I| <= 1e-6, det > 0.")
+    euler: Euler | None = Field(None, description="Radians; convention `euler_convention` "
+                                "(zyx: [roll, pitch, yaw], R = Rz(yaw) Ry(pitch) Rx(roll)).")
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> Body:
+        if (self.object is None) == (self.size is None):
+            raise ValueError("give exactly one of `object` and `size`")
+        given = [n for n in _ORIENTATIONS if getattr(self, n) is not None]
+        if len(given) != 1:
+            raise ValueError("give exactly one orientation of `quaternion`, `matrix`, "
+                             f"`euler` (got {', '.join(given) or 'none'})")
+        return self
+
+
+class ContactRequest(BaseModel):
+    """One pair."""
+
+    model_config = _STRICT
+
+    a: Body
+    b: Body
+    mode: Mode | None = Field(None, description="Predictor: exact (always served), single, "
+                              "committee, auto. Default: the server's default mode.")
+    include: Annotated[list[Include], Field(max_length=2)] = Field(
+        default_factory=list, description="Optional outputs: `manifold` (contact polygon), "
+        "`paper_angles` (the paper's four spherical angles).")
+    euler_convention: EulerConvention = "zyx"
+
+
+class Feature(BaseModel):
+    id: int = Field(description="Unified feature id: faces 0-5, edges 6-17, vertices 18-25, "
+                    "-1 none.")
+    name: str = Field(description='e.g. "face +z", "edge x(+y,-z)", "vertex (+,-,+)".')
+    kind: Literal["face", "edge", "vertex", "none"]
+
+
+class Manifold(BaseModel):
+    count: int = Field(description="Number of contact points (0 when separated).")
+    points: list[list[float]] = Field(description="(count, 3) world frame, metres, on the "
+                                      "mid-surface.")
+    depths: list[float] = Field(description="(count,) penetration of each point, metres.")
+
+
+class PaperAngles(BaseModel):
+    """The paper's outputs, in A's frame, radians; null where undefined (no contact)."""
+
+    point_azimuth: float | None
+    point_elevation: float | None
+    force_azimuth: float | None
+    force_elevation: float | None
+
+
+class ContactResponse(BaseModel):
+    colliding: bool
+    point: list[float] = Field(description="Impact point, world frame, metres (mid-surface).")
+    normal: list[float] = Field(description="Unit normal from A towards B (force on B along "
+                                "+normal).")
+    depth: float = Field(description="Penetration along the normal, metres, >= 0.")
+    contact_type: ContactType
+    feature_a: Feature
+    feature_b: Feature
+    axis: int = Field(description="Separating-axis index: 0-2 faces of A, 3-5 faces of B, "
+                      "6 + 3i + j edge i of A x edge j of B.")
+    confidence: float = Field(description="1 for exact; a learned predictor's confidence.")
+    predictor: str = Field(description="The predictor that answered.")
+    mode: Mode = Field(description="The mode that was requested (or the default).")
+    model_version: str
+    manifold: Manifold | None = Field(None, description="Only with include=manifold.")
+    paper_angles: PaperAngles | None = Field(None, description="Only with "
+                                             "include=paper_angles.")
+
+
+def _column(doc: str):
+    return Field(None, description=doc + " One value for every pair, or an array of N.")
+
+
+class BatchRequest(BaseModel):
+    """Columnar batch of N pairs (JSON body of POST /v1/contact/batch).
+
+    Every column holds either one value (broadcast to all pairs) or an array of N values;
+    all arrays must have the same N. Per body: exactly one of `*_object` / `*_size`, and
+    exactly one of `*_quaternion` / `*_matrix` / `*_euler`.
+    """
+
+    model_config = _STRICT
+
+    mode: Mode | None = None
+    include: Annotated[list[Include], Field(max_length=2)] = Field(default_factory=list)
+    euler_convention: EulerConvention = "zyx"
+    a_object: ObjectName | list[ObjectName] | None = _column("Scene object names of A.")
+    a_size: Size3 | list[Size3] | None = _column("Sizes of A, metres.")
+    a_position: Vec3 | list[Vec3] = Field(description="Centres of A, metres. One value for "
+                                          "every pair, or an array of N.")
+    a_quaternion: Quaternion | list[Quaternion] | None = _column("Orientations of A.")
+    a_matrix: Matrix | list[Matrix] | None = _column("Rotation matrices of A (rows).")
+    a_euler: Euler | list[Euler] | None = _column("Euler angles of A, radians.")
+    b_object: ObjectName | list[ObjectName] | None = _column("Scene object names of B.")
+    b_size: Size3 | list[Size3] | None = _column("Sizes of B, metres.")
+    b_position: Vec3 | list[Vec3] = Field(description="Centres of B, metres. One value for "
+                                          "every pair, or an array of N.")
+    b_quaternion: Quaternion | list[Quaternion] | None = _column("Orientations of B.")
+    b_matrix: Matrix | list[Matrix] | None = _column("Rotation matrices of B (rows).")
+    b_euler: Euler | list[Euler] | None = _column("Euler angles of B, radians.")
+
+
+class BatchResponse(BaseModel):
+    """Columnar answer: every column has N entries, row i answers pair i."""
+
+    n: int
+    mode: Mode
+    model_version: str
+    predictor: list[str]
+    colliding: list[bool]
+    point: list[list[float]]
+    normal: list[list[float]]
+    depth: list[float]
+    contact_type: list[ContactType]
+    feature_a: list[int]
+    feature_b: list[int]
+    axis: list[int]
+    confidence: list[float]
+    manifold_count: list[int] | None = Field(None, description="Only with include=manifold.")
+    manifold_points: list[list[list[float]]] | None = Field(
+        None, description="(N, 8, 3), rows past manifold_count are 0.")
+    manifold_depths: list[list[float]] | None = Field(None, description="(N, 8).")
+    paper_angles: list[list[float | None]] | None = Field(
+        None, description="(N, 4) [point azimuth, point elevation, force azimuth, force "
+        "elevation], A's frame, radians; null rows where there is no contact.")
+
+
+class ErrorItem(BaseModel):
+    field: str = Field(description='Offending field, e.g. "a.quaternion", "b_size", "body".')
+    reason: str
+    type: str
+    loc: list[str | int]
+    rows: list[int] | None = Field(None, description="Batch rows at fault (first 20).")
+
+
+class ErrorResponse(BaseModel):
+    error: str = Field(description="invalid_input, body_too_large, batch_too_large, "
+                       "mode_unavailable, not_ready, overloaded, unsupported_media_type, "
+                       "not_acceptable, not_found, method_not_allowed, internal_error.")
+    message: str
+    detail: list[ErrorItem] = []
+    request_id: str | None = None
+    mode: str | None = None
+
+
+class ModesInfo(BaseModel):
+    available: list[Mode]
+    unavailable: dict[str, str] = Field(description="mode -> why it cannot answer.")
+    default: Mode
+
+
+class ModelsResponse(BaseModel):
+    model_version: str
+    modes: ModesInfo
+    scene: dict | None = Field(description="name, hash, objects (name -> size), pairs; "
+                               "null when no scene is loaded.")
+    scene_note: str | None = None
+    bundle: dict | None = Field(description="The learned bundle's manifest (versions, "
+                                "validation metrics); null while none is loaded.")
+    versions: dict[str, str]
+    limits: dict[str, int | float]
+    contact_types: list[str]
+    feature_names: dict[str, str]
+    includes: list[str] = Field(description="Accepted values of `include`.")
+    loaded_at: float
+
+
+class HealthResponse(BaseModel):
+    status: Literal["ok"]
+
+
+class ReadyResponse(BaseModel):
+    ready: bool
+    reason: str | None = None
+    model_version: str | None = None
+
+
+class BatchOptions(BaseModel):
+    """Options of a batch: JSON body fields, or query parameters (any content type)."""
+
+    model_config = _STRICT
+
+    mode: Mode | None = None
+    include: Annotated[list[Include], Field(max_length=2)] = Field(default_factory=list)
+    euler_convention: EulerConvention = "zyx"

@@ -1,0 +1,264 @@
+"""POST /v1/contact/batch: columnar JSON and npz, equal answers, bad columns (status first)."""
+from __future__ import annotations
+
+import io
+import zipfile
+
+import numpy as np
+import orjson
+import pytest
+
+from models.exact import box_box
+from models.rotations import quaternion_to_matrix, random_quaternions
+from tests.service.conftest import assert_error
+
+URL = "/v1/contact/batch"
+NPZ = "application/x-npz"
+
+
+def poses(n: int, seed: int = 0) -> dict:
+    """N random cube pairs around contact, as request columns (arrays)."""
+    rng = np.random.default_rng(seed)
+    return {
+        "a_size": np.array([2.0, 2.0, 2.0]),
+        "a_position": rng.normal(size=(n, 3)),
+        "a_quaternion": random_quaternions(n, rng),
+        "b_size": rng.uniform(0.5, 3.0, size=(n, 3)),
+        "b_position": rng.normal(size=(n, 3)) * 1.5,
+        "b_quaternion": random_quaternions(n, rng),
+    }
+
+
+def as_json(columns: dict, **options) -> dict:
+    return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in columns.items()} \
+        | options
+
+
+def npz_bytes(columns: dict, compressed: bool = False) -> bytes:
+    buffer = io.BytesIO()
+    (np.savez_compressed if compressed else np.savez)(
+        buffer, **{k: np.asarray(v) for k, v in columns.items()})
+    return buffer.getvalue()
+
+
+def load_npz(data: bytes) -> dict:
+    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+        return {k: npz[k] for k in npz.files}
+
+
+def test_json_batch_matches_exact_solver(client):
+    columns = poses(500)
+    response = client.post(URL, json=as_json(columns))
+    assert response.status_code == 200
+    body = response.json()
+    expected = box_box(*(columns[k] for k in ("a_size", "a_position", "a_quaternion",
+                                              "b_size", "b_position", "b_quaternion")))
+    assert body["n"] == 500 and body["mode"] == "exact"
+    assert body["model_version"] == response.headers["x-model-version"]
+    # The service normalises quaternions once more than a direct call: ulp differences.
+    np.testing.assert_allclose(body["point"], expected.point, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(body["normal"], expected.normal, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(body["depth"], expected.depth, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(body["colliding"], expected.colliding)
+    assert body["contact_type"] == expected.contact_type.tolist()
+    np.testing.assert_array_equal(body["feature_a"], expected.feature_a)
+    assert body["predictor"] == ["exact"] * 500
+    assert "manifold_points" not in body and "paper_angles" not in body
+    assert 0 < sum(body["colliding"]) < 500
+
+
+def test_binary_round_trip_equals_json(client):
+    columns = poses(300, seed=1)
+    as_text = client.post(URL, json=as_json(columns, include=["manifold", "paper_angles"]))
+    as_npz = client.post(URL + "?include=manifold&include=paper_angles",
+                         content=npz_bytes(columns),
+                         headers={"Content-Type": NPZ, "Accept": NPZ})
+    assert as_text.status_code == 200 and as_npz.status_code == 200
+    assert as_npz.headers["content-type"] == NPZ
+    text, binary = as_text.json(), load_npz(as_npz.content)
+    for key in ("point", "normal", "depth", "confidence", "colliding", "feature_a",
+                "feature_b", "axis", "manifold_count", "manifold_points", "manifold_depths"):
+        np.testing.assert_array_equal(np.asarray(text[key]), binary[key], err_msg=key)
+    angles = np.array(text["paper_angles"], dtype=np.float64)  # null -> NaN
+    np.testing.assert_array_equal(angles, binary["paper_angles"])
+    assert binary["point"].dtype == np.dtype("<f8") and binary["colliding"].dtype == bool
+    names = binary["contact_type_names"][binary["contact_type_code"]]
+    assert names.tolist() == text["contact_type"]
+    assert str(binary["model_version"]) == text["model_version"]
+    assert binary["predictor_names"][binary["predictor_code"]].tolist() == text["predictor"]
+
+
+@pytest.mark.parametrize("request_type,answer_type", [("json", NPZ), (NPZ, "json")])
+def test_mixed_media_types(client, request_type, answer_type):
+    columns = poses(20, seed=2)
+    if request_type == "json":
+        response = client.post(URL, json=as_json(columns), headers={"Accept": answer_type})
+    else:
+        response = client.post(URL, content=npz_bytes(columns, compressed=True),
+                               headers={"Content-Type": NPZ, "Accept": "application/json"})
+    assert response.status_code == 200
+    depth = (load_npz(response.content)["depth"] if answer_type == NPZ
+             else np.asarray(response.json()["depth"]))
+    assert depth.shape == (20,)
+
+
+def test_broadcast_objects_matrices_and_euler(client):
+    n = 50
+    rng = np.random.default_rng(3)
+    q = random_quaternions(n, rng)
+    body = {"a_object": "container40", "a_position": [0, 0, 0], "a_euler": [0, 0, 0],
+            "b_object": ["spreader", "container20"] * (n // 2),
+            "b_position": (rng.normal(size=(n, 3)) + [0, 0, 2.0]).tolist(),
+            "b_matrix": quaternion_to_matrix(q).tolist()}
+    response = client.post(URL, json=body)
+    assert response.status_code == 200
+    sizes = np.array([[12.0, 2.35, 0.8], [6.058, 2.438, 2.591]] * (n // 2))
+    expected = box_box([12.192, 2.438, 2.591], [0, 0, 0], [1, 0, 0, 0], sizes,
+                       body["b_position"], q)
+    np.testing.assert_allclose(response.json()["point"], expected.point, atol=1e-9)
+
+
+def test_options_in_query_string_for_json(client):
+    response = client.post(URL + "?include=manifold", json=as_json(poses(3)))
+    assert response.status_code == 200 and "manifold_points" in response.json()
+    both = client.post(URL + "?mode=exact", json=as_json(poses(3), mode="exact"))
+    assert_error(both, 422, "mode")
+
+
+def test_learned_mode_is_409(client):
+    response = client.post(URL, json=as_json(poses(3), mode="committee"))
+    body = assert_error(response, 409, "mode", "mode_unavailable")
+    assert body["mode"] == "committee"
+    assert_error(client.post(URL + "?mode=auto", content=npz_bytes(poses(2)),
+                             headers={"Content-Type": NPZ}), 409, "mode")
+
+
+# --------------------------------------------------------------------------- bad columns
+
+
+def _with(**changes):
+    body = as_json(poses(4, seed=5))
+    for key, value in changes.items():
+        if value is None:
+            body.pop(key, None)
+        else:
+            body[key] = value
+    return body
+
+
+BAD = [
+    ("ragged columns", {"a_position": [[0, 0, 0]] * 3}, "a_position", None),
+    ("ragged rows", {"b_position": [[0, 0, 0], [0, 0], [0, 0, 0], [1, 1, 1]]}, "b_position",
+     None),
+    ("wrong width", {"a_quaternion": [[1, 0, 0]] * 4}, "a_quaternion", None),
+    ("scalar position", {"a_position": 1.0}, "a_position", None),
+    ("NaN string", {"b_size": [["NaN", 1, 1]] * 4}, "b_size", None),
+    ("null", {"b_size": [[None, 1, 1]] * 4}, "b_size", None),
+    ("booleans", {"b_position": [[True, False, True]] * 4}, "b_position", None),
+    ("size zero", {"a_size": [[1, 1, 1], [1, 0, 1], [1, 1, 1], [1, 1, -2]]}, "a_size", [1, 3]),
+    ("zero quaternion", {"b_quaternion": [[1, 0, 0, 0], [0, 0, 0, 0]] * 2}, "b_quaternion",
+     [1, 3]),
+    ("non-rotation matrix", {"b_quaternion": None, "b_matrix": [[[1, 0, 0], [0, 1, 0],
+                                                                 [0, 0, 1]],
+                                                                [[2, 0, 0], [0, 1, 0],
+                                                                 [0, 0, 1]]] * 2},
+     "b_matrix", [1, 3]),
+    ("unknown object", {"a_size": None, "a_object": ["cube", "cube", "box9", "cube"]},
+     "a_object", [2]),
+    ("object not a string", {"a_size": None, "a_object": [1, 2, 3, 4]}, "a_object", None),
+    ("object and size", {"a_object": "cube"}, "a_size", None),
+    ("no orientation", {"a_quaternion": None}, "a_quaternion", None),
+    ("two orientations", {"a_euler": [0, 0, 0]}, "a_quaternion", None),
+    ("missing position", {"b_position": None}, "b_position", None),
+    ("unknown column", {"c_size": [1, 1, 1]}, "c_size", None),
+    ("unknown mode", {"mode": "fast"}, "mode", None),
+    ("position out of range", {"a_position": [[0, 0, 2e9]] * 4}, "a_position", [0, 1, 2, 3]),
+    ("empty batch", {"a_position": [], "b_position": []}, "a_position", None),
+]
+
+
+@pytest.mark.parametrize("name,changes,field,rows", BAD, ids=[b[0] for b in BAD])
+def test_bad_columns_are_422_naming_column_and_rows(client, name, changes, field, rows):
+    response = client.post(URL, json=_with(**changes))
+    body = assert_error(response, 422, field, "invalid_input")
+    if rows is not None:
+        assert body["detail"][0]["rows"] == rows
+
+
+@pytest.mark.parametrize("raw", [b"{", b"[1, 2]", b'{"a_size": [NaN, 1, 1]}', b"",
+                                 b'{"a_position": [1e400, 0, 0]}'])
+def test_malformed_json_is_422(client, raw):
+    response = client.post(URL, content=raw, headers={"Content-Type": "application/json"})
+    assert_error(response, 422, "body", "invalid_input")
+
+
+def test_nan_in_npz_is_422_with_rows(client):
+    columns = poses(5)
+    columns["b_position"][2, 1] = np.nan
+    columns["b_position"][4, 0] = np.inf
+    response = client.post(URL, content=npz_bytes(columns), headers={"Content-Type": NPZ})
+    body = assert_error(response, 422, "b_position")
+    assert body["detail"][0]["rows"] == [2, 4]
+
+
+@pytest.mark.parametrize("payload", [b"not a zip", b"PK\x03\x04broken", npz_bytes(poses(2))[:60]])
+def test_malformed_npz_is_422(client, payload):
+    response = client.post(URL, content=payload, headers={"Content-Type": NPZ})
+    assert_error(response, 422, "body", "invalid_input")
+
+
+def test_pickled_object_array_is_refused(client):
+    buffer = io.BytesIO()
+    columns = poses(2)
+    columns["a_object"] = np.array([{"x": 1}, None], dtype=object)
+    columns.pop("a_size")
+    np.savez(buffer, **columns)  # allow_pickle is the default when saving
+    response = client.post(URL, content=buffer.getvalue(), headers={"Content-Type": NPZ})
+    assert_error(response, 422, "a_object")
+
+
+def test_npz_that_expands_beyond_the_limit_is_413(make_client):
+    c = make_client(max_body_bytes=64 * 1024)
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
+        array = io.BytesIO()
+        np.save(array, np.zeros((100_000, 3)))
+        archive.writestr("a_position.npy", array.getvalue())
+    assert len(buffer.getvalue()) < 64 * 1024
+    response = c.post(URL, content=buffer.getvalue(), headers={"Content-Type": NPZ})
+    assert_error(response, 413, None, "body_too_large")
+
+
+def test_npz_member_shorter_than_its_header_is_422(client):
+    array = io.BytesIO()
+    np.save(array, np.zeros((1000, 3)))
+    data = array.getvalue()
+    header_end = data.index(b"\n") + 1
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        archive.writestr("a_position.npy", data[:header_end] + b"\0" * 16)
+    response = client.post(URL, content=buffer.getvalue(), headers={"Content-Type": NPZ})
+    assert_error(response, 422, "body")
+
+
+def test_batch_above_the_pair_limit_is_413(make_client):
+    c = make_client(max_batch_pairs=10)
+    response = c.post(URL, json=as_json(poses(11)))
+    assert_error(response, 413, None, "batch_too_large")
+    assert c.post(URL, json=as_json(poses(10))).status_code == 200
+
+
+def test_unsupported_media_types(client):
+    assert_error(client.post(URL, content=b"x", headers={"Content-Type": "text/csv"}), 415,
+                 None, "unsupported_media_type")
+    assert_error(client.post(URL, json=as_json(poses(2)), headers={"Accept": "text/html"}), 406,
+                 None, "not_acceptable")
+
+
+def test_json_floats_round_trip_exactly(client):
+    """orjson writes the shortest repr of each float64: JSON and npz carry the same bits."""
+    columns = poses(200, seed=9)
+    text = orjson.loads(client.post(URL, json=as_json(columns)).content)
+    binary = load_npz(client.post(URL, json=as_json(columns), headers={"Accept": NPZ}).content)
+    assert np.array_equal(np.asarray(text["point"]), binary["point"])
+    assert np.array_equal(np.asarray(text["normal"]), binary["normal"])

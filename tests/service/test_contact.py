@@ -1,0 +1,244 @@
+"""POST /v1/contact: answers, and every kind of bad input (status code first)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from models.exact import box_box
+from models.rotations import euler_to_quaternion, quaternion_to_matrix
+from tests.service.conftest import PAIR, assert_error, pair
+
+FIELDS = {"colliding", "point", "normal", "depth", "contact_type", "feature_a", "feature_b",
+          "axis", "confidence", "predictor", "mode", "model_version"}
+
+
+def _exact(body):
+    q_b = euler_to_quaternion(body["b"]["euler"])[0]
+    return box_box(body["a"]["size"], body["a"]["position"], body["a"]["quaternion"],
+                   body["b"]["size"], body["b"]["position"], q_b)
+
+
+def test_answer_matches_exact_solver(client):
+    response = client.post("/v1/contact", json=PAIR)
+    assert response.status_code == 200
+    body = response.json()
+    assert set(body) == FIELDS
+    expected = _exact(PAIR)
+    assert body["colliding"] is True
+    np.testing.assert_array_equal(body["point"], expected.point[0])
+    np.testing.assert_array_equal(body["normal"], expected.normal[0])
+    assert body["depth"] == expected.depth[0]
+    assert body["contact_type"] == expected.contact_type[0]
+    assert body["feature_a"] == {"id": int(expected.feature_a[0]), "name": "face +z",
+                                 "kind": "face"}
+    assert body["feature_b"]["id"] == int(expected.feature_b[0])
+    assert body["predictor"] == "exact" and body["mode"] == "exact"
+    assert body["confidence"] == 1.0
+    assert body["model_version"].startswith("exact-")
+    assert response.headers["x-model-version"] == body["model_version"]
+    assert response.headers["content-type"] == "application/json"
+
+
+@pytest.mark.parametrize("convention", ["zyx", "xyz"])
+def test_plain_float_euler_equals_models_rotations(convention):
+    from service.pairs import euler_quaternion
+
+    angles = np.random.default_rng(0).uniform(-7, 7, size=(500, 3))
+    ours = np.array([euler_quaternion(e.tolist(), convention) for e in angles])
+    np.testing.assert_allclose(ours, euler_to_quaternion(angles, convention), rtol=0,
+                               atol=4e-16)
+
+
+def test_single_equals_batch_row(client):
+    single = client.post("/v1/contact", json=PAIR).json()
+    batch = client.post("/v1/contact/batch", json={
+        "a_size": PAIR["a"]["size"], "a_position": [PAIR["a"]["position"]] * 2,
+        "a_quaternion": PAIR["a"]["quaternion"], "b_size": PAIR["b"]["size"],
+        "b_position": PAIR["b"]["position"], "b_euler": PAIR["b"]["euler"]}).json()
+    for key in ("point", "normal", "depth"):
+        assert batch[key][0] == batch[key][1]
+        np.testing.assert_allclose(batch[key][0], single[key], rtol=0, atol=1e-12)
+    assert batch["contact_type"][0] == single["contact_type"]
+    assert batch["axis"][0] == single["axis"]
+
+
+def test_separated_pair_has_no_contact(client):
+    response = client.post("/v1/contact", json=pair(b_position=[10.0, 0.0, 0.0]))
+    assert response.status_code == 200
+    body = response.json()
+    assert body["colliding"] is False and body["contact_type"] == "none"
+    assert body["depth"] == 0.0 and body["feature_a"]["id"] == -1
+    assert body["feature_a"]["kind"] == "none"
+
+
+def test_orientations_agree(client):
+    """quaternion, matrix and euler of the same rotation give the same answer."""
+    q = euler_to_quaternion([0.05, 0.0, 0.0])[0]
+    answers = [client.post("/v1/contact", json=pair(b_euler=None, **{f"b_{k}": v})).json()
+               for k, v in (("quaternion", q.tolist()),
+                            ("matrix", quaternion_to_matrix(q)[0].tolist()))]
+    answers.append(client.post("/v1/contact", json=PAIR).json())
+    for other in answers[1:]:
+        np.testing.assert_allclose(other["point"], answers[0]["point"], atol=1e-12)
+        np.testing.assert_allclose(other["normal"], answers[0]["normal"], atol=1e-12)
+        assert other["contact_type"] == answers[0]["contact_type"]
+
+
+def test_euler_convention_xyz(client):
+    zyx = client.post("/v1/contact", json=pair(b_euler=[0.05, 0.02, 0.0])).json()
+    # a rotation about x then y: xyz [a, b, 0] = Rx(a) Ry(b), zyx [roll, pitch, 0] = Ry Rx
+    xyz = client.post("/v1/contact", json=pair(b_euler=[0.05, 0.02, 0.0],
+                                                euler_convention="xyz")).json()
+    assert xyz["point"] != zyx["point"]
+
+
+def test_scene_objects(client):
+    body = {"a": {"object": "container40", "position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
+            "b": {"object": "spreader", "position": [0, 0, 1.69], "euler": [0, 0, 0.01]}}
+    response = client.post("/v1/contact", json=body)
+    assert response.status_code == 200
+    raw = client.post("/v1/contact", json={
+        "a": {"size": [12.192, 2.438, 2.591], "position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
+        "b": {"size": [12.0, 2.35, 0.8], "position": [0, 0, 1.69], "euler": [0, 0, 0.01]}})
+    assert response.json()["point"] == raw.json()["point"]
+    assert response.json()["contact_type"] == "face-face"
+
+
+def test_include_manifold_and_paper_angles(client):
+    response = client.post("/v1/contact", json=pair(include=["manifold", "paper_angles"]))
+    assert response.status_code == 200
+    body = response.json()
+    manifold = body["manifold"]
+    assert manifold["count"] == len(manifold["points"]) == len(manifold["depths"]) >= 1
+    # the point is the depth-weighted mean of the manifold
+    weights = np.asarray(manifold["depths"])
+    mean = (np.asarray(manifold["points"]) * weights[:, None]).sum(0) / weights.sum()
+    np.testing.assert_allclose(body["point"], mean, atol=1e-9)
+    angles = body["paper_angles"]
+    assert set(angles) == {"point_azimuth", "point_elevation", "force_azimuth",
+                           "force_elevation"}
+    assert math.isclose(angles["force_elevation"], math.pi / 2)  # normal +z in A's frame
+    separated = client.post("/v1/contact", json=pair(b_position=[9, 0, 0],
+                                                      include=["paper_angles"])).json()
+    assert all(v is None for v in separated["paper_angles"].values())
+
+
+def test_request_id_is_honoured_and_returned(client):
+    response = client.post("/v1/contact", json=PAIR, headers={"X-Request-ID": "sim-42.7"})
+    assert response.status_code == 200
+    assert response.headers["x-request-id"] == "sim-42.7"
+    fresh = client.post("/v1/contact", json=PAIR, headers={"X-Request-ID": "bad id\"x"})
+    assert fresh.headers["x-request-id"] != "bad id" and len(fresh.headers["x-request-id"]) == 32
+
+
+# --------------------------------------------------------------------------- bad input
+
+RAW_BAD = [
+    ("NaN token", b'{"a": {"size": [NaN, 2, 2], "position": [0,0,0], "quaternion": [1,0,0,0]},'
+     b' "b": {"size": [2,2,2], "position": [0,0,1.9], "quaternion": [1,0,0,0]}}', "a.size"),
+    ("Infinity token", b'{"a": {"size": [2, 2, 2], "position": [Infinity,0,0], "quaternion":'
+     b' [1,0,0,0]}, "b": {"size": [2,2,2], "position": [0,0,1.9], "quaternion": [1,0,0,0]}}',
+     "a.position"),
+    ("-Infinity token", b'{"a": {"size": [2, 2, 2], "position": [0,0,0], "quaternion":'
+     b' [1,0,0,-Infinity]}, "b": {"size": [2,2,2], "position": [0,0,1.9], "quaternion":'
+     b' [1,0,0,0]}}', "a.quaternion"),
+    ("overflow 1e400", b'{"a": {"size": [2, 2, 2], "position": [0,0,0], "quaternion":'
+     b' [1,0,0,0]}, "b": {"size": [2,2,2], "position": [0,0,1e400], "quaternion": [1,0,0,0]}}',
+     "b.position"),
+    ("huge integer", b'{"a": {"size": [2, 2, 2], "position": [0,0,0], "quaternion": [1,0,0,0]},'
+     b' "b": {"size": [2,2,2], "position": [0,0,' + b"9" * 400 + b'], "quaternion": [1,0,0,0]}}',
+     "b.position"),
+    ("malformed JSON", b'{"a": {"size": [2, 2, 2]', "body"),
+    ("not an object", b'[1, 2, 3]', "body"),
+    ("empty body", b"", "body"),
+]
+
+
+@pytest.mark.parametrize("name,raw,field", RAW_BAD, ids=[r[0] for r in RAW_BAD])
+def test_raw_bad_bodies_are_422(client, name, raw, field):
+    response = client.post("/v1/contact", content=raw,
+                           headers={"Content-Type": "application/json"})
+    assert_error(response, 422, field, "invalid_input")
+
+
+BAD = [
+    ("NaN string", {"a_size": ["NaN", 2, 2]}, "a.size"),
+    ("number as string", {"a_position": ["0", 0, 0]}, "a.position"),
+    ("boolean as number", {"b_position": [True, 0, 0]}, "b.position"),
+    ("null in vector", {"b_position": [None, 0, 0]}, "b.position"),
+    ("size of 2", {"a_size": [2, 2]}, "a.size"),
+    ("size of 4", {"a_size": [2, 2, 2, 2]}, "a.size"),
+    ("position of 4", {"b_position": [0, 0, 1.9, 0]}, "b.position"),
+    ("quaternion of 3", {"a_quaternion": [1, 0, 0]}, "a.quaternion"),
+    ("matrix 2x3", {"b_euler": None, "b_matrix": [[1, 0, 0], [0, 1, 0]]}, "b.matrix"),
+    ("matrix row of 2", {"b_euler": None, "b_matrix": [[1, 0], [0, 1, 0], [0, 0, 1]]},
+     "b.matrix"),
+    ("euler of 2", {"b_euler": [0.1, 0.2]}, "b.euler"),
+    ("size zero", {"a_size": [2, 0, 2]}, "a.size"),
+    ("size negative", {"b_size": [2, 2, -1]}, "b.size"),
+    ("size too small", {"b_size": [2, 2, 1e-9]}, "b.size"),
+    ("position too far", {"b_position": [0, 0, 1e12]}, "b.position"),
+    ("zero quaternion", {"a_quaternion": [0, 0, 0, 0]}, "a.quaternion"),
+    ("tiny quaternion", {"a_quaternion": [1e-9, 0, 0, 0]}, "a.quaternion"),
+    ("scaled matrix", {"b_euler": None, "b_matrix": [[2, 0, 0], [0, 2, 0], [0, 0, 2]]},
+     "b.matrix"),
+    ("sheared matrix", {"b_euler": None, "b_matrix": [[1, 0.1, 0], [0, 1, 0], [0, 0, 1]]},
+     "b.matrix"),
+    ("reflection", {"b_euler": None, "b_matrix": [[1, 0, 0], [0, 1, 0], [0, 0, -1]]},
+     "b.matrix"),
+    ("zero matrix", {"b_euler": None, "b_matrix": [[0, 0, 0], [0, 0, 0], [0, 0, 0]]},
+     "b.matrix"),
+    ("unknown object", {"a_size": None, "a_object": "container45"}, "a.object"),
+    ("object and size", {"a_object": "cube"}, "a"),
+    ("neither object nor size", {"a_size": None}, "a"),
+    ("no orientation", {"b_euler": None}, "b"),
+    ("two orientations", {"a_euler": [0, 0, 0]}, "a"),
+    ("unknown body key", {"a_velocity": [0, 0, 0]}, "a.velocity"),
+    ("missing position", {"b_position": None}, "b.position"),
+    ("unknown mode", {"mode": "fastest"}, "mode"),
+    ("unknown include", {"include": ["everything"]}, "include"),
+    ("unknown euler convention", {"euler_convention": "zxz"}, "euler_convention"),
+    ("unknown top-level key", {"c": {}}, "c"),
+    ("missing body b", {"b": None}, "b"),
+]
+
+
+@pytest.mark.parametrize("name,changes,field", BAD, ids=[b[0] for b in BAD])
+def test_bad_input_is_422_naming_the_field(client, name, changes, field):
+    response = client.post("/v1/contact", json=pair(**changes))
+    body = assert_error(response, 422, field, "invalid_input")
+    assert all(d["reason"] for d in body["detail"])
+
+
+def test_learned_modes_are_409_naming_the_mode(client):
+    for mode in ("single", "committee", "auto"):
+        response = client.post("/v1/contact", json=pair(mode=mode))
+        body = assert_error(response, 409, "mode", "mode_unavailable")
+        assert body["mode"] == mode and "bundle" in body["message"]
+
+
+def test_wrong_content_type_is_415(client):
+    response = client.post("/v1/contact", content=b"a=1",
+                           headers={"Content-Type": "text/plain"})
+    assert_error(response, 415, None, "unsupported_media_type")
+
+
+def test_invalid_utf8_is_malformed_json(client):
+    response = client.post("/v1/contact", content=b'{"a": "\xff\xfe"}',
+                           headers={"Content-Type": "application/json"})
+    assert_error(response, 422, "body", "invalid_input")
+
+
+def test_unknown_object_without_scene(make_client):
+    c = make_client(scene="")
+    response = c.post("/v1/contact", json=pair(a_size=None, a_object="cube"))
+    body = assert_error(response, 422, "a.object")
+    assert "no scene" in body["detail"][0]["reason"]
+    assert c.post("/v1/contact", json=PAIR).status_code == 200
+
+
+def test_method_and_path_errors_use_the_envelope(client):
+    assert_error(client.get("/v1/contact"), 405, None, "method_not_allowed")
+    assert_error(client.get("/v1/nothing"), 404, None, "not_found")
