@@ -47,10 +47,9 @@ $(STAMP_DEV): pyproject.toml | $(PY)
 install: $(STAMP_RUNTIME)
 install-dev: $(STAMP_DEV)
 
-# Until the service exists (issue 5), run the CLI's smallest real job: one exact contact.
+# Serve the default scene (quay_crane) on HOST:PORT until Ctrl-C (graceful shutdown).
 run: $(STAMP_RUNTIME)
-	$(VENV)/bin/impactnet contact
-	@echo "impactnet: the HTTP service on $(HOST):$(PORT) (default scene) arrives with the service issue (issue 5); above is one exact contact from 'impactnet contact'."
+	$(VENV)/bin/impactnet serve --host $(HOST) --port $(PORT)
 
 test: $(STAMP_DEV)
 	$(call run_pytest,)

@@ -24,7 +24,6 @@ EXIT_NOT_IMPLEMENTED = 2
 
 # Which issue brings each subcommand that does not exist yet.
 _PENDING = {
-    "serve": "issue 5, 'The HTTP/JSON service for the simulator'",
     "train": "issue 4, 'The learned predictors' (retraining jobs: issue 6)",
     "sweep": "issue 6, 'Retraining jobs and sweeps'",
     "evaluate": "issue 4, 'The learned predictors'",
@@ -155,6 +154,8 @@ def _cmd_bench_exact(args: argparse.Namespace) -> int:
 # `run(args) -> int`. Those modules import nothing heavy at module level (checked by the CLI
 # tests), so building the parser stays instant; the work itself imports lazily.
 _DELEGATED = {
+    "serve": ("service.cli", "serve the HTTP/JSON contact service (default: the quay_crane "
+                             "scene on 127.0.0.1:8000)"),
     "datagen": ("training.datagen_cli",
                 "generate labelled first-contact datasets for the pairs of a scene"),
 }
@@ -185,7 +186,6 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     for name, help_text in [
-        ("serve", "run the HTTP service (not implemented yet)"),
         ("train", "train the learned predictors of a scene (not implemented yet)"),
         ("sweep", "hyper-parameter sweep with Optuna (not implemented yet)"),
         ("evaluate", "evaluate a bundle on a held-out set (not implemented yet)"),
