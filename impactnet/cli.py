@@ -27,7 +27,6 @@ _PENDING = {
     "train": "issue 4, 'The learned predictors' (retraining jobs: issue 6)",
     "sweep": "issue 6, 'Retraining jobs and sweeps'",
     "evaluate": "issue 4, 'The learned predictors'",
-    "reproduce-paper": "issue 3, 'Contact data generation, scenes, and the paper's Tables 1 and 2'",
     "bench": "issue 7, 'The speed-accuracy trade, measured: impactnet bench'",
 }
 
@@ -158,6 +157,8 @@ _DELEGATED = {
                              "scene on 127.0.0.1:8000)"),
     "datagen": ("training.datagen_cli",
                 "generate labelled first-contact datasets for the pairs of a scene"),
+    "reproduce-paper": ("training.reproduce_paper_cli",
+                        "reproduce the paper's Tables 1 and 2 and Figures 5 and 6"),
 }
 
 
@@ -209,10 +210,6 @@ def build_parser() -> argparse.ArgumentParser:
     exact.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     exact.add_argument("--seed", type=int, default=0, help="pose generator seed (default 0)")
     exact.set_defaults(handler=_cmd_bench_exact)
-
-    rp = sub.add_parser("reproduce-paper", help="reproduce the paper's tables (not implemented "
-                        "yet)")
-    rp.set_defaults(handler=_not_implemented("reproduce-paper"))
 
     contact = sub.add_parser(
         "contact",
