@@ -1,31 +1,39 @@
 """Contact manifolds for N box pairs: face clipping and edge-edge closest points.
 
-Stage 2 of the exact solver (see :mod:`models.exact`).
+Stage 3 of the exact solver (see :mod:`models.exact`).
 
 Face axes. The box that owns the chosen face axis is the *reference* box; the other one is the
 *incident* box. Everything happens in the reference box's frame, where the reference face is
 the axis-aligned rectangle ``|u| <= h_u, |w| <= h_w`` in the plane ``x_axis = sign * h_axis``.
 The incident face is the incident box's face most anti-parallel to the normal. Its clip
-against the rectangle (the Sutherland-Hodgman result) is found in closed form: the vertices
-of the intersection of a convex quad and a rectangle are (a) quad vertices inside the
-rectangle, (b) rectangle corners inside the quad, (c) crossings of a quad edge with the
-interior of a rectangle edge. Coincidences within :data:`SNAP_TOL_REL` are counted once,
-in that order of priority, so a stack of equal boxes gives 4 points, not 8. Points above the
-reference plane (negative depth) are dropped. The reported points lie on the mid-surface
-(moved by half their depth towards the incident box).
+against the rectangle (the Sutherland-Hodgman result) is found in closed form
+(:mod:`models.clip`): the vertices of the intersection of a convex quad and a rectangle are
+(a) quad vertices inside the rectangle, (b) rectangle corners inside the quad, (c) crossings
+of a quad edge with the interior of a rectangle edge. Coincidences within
+:data:`SNAP_TOL_REL` are counted once, in that order of priority, so a stack of equal boxes
+gives 4 points, not 8. Points above the reference plane (negative depth) are dropped. The
+reported points lie on the mid-surface (moved by half their depth towards the incident box).
 
 The incident feature is named by how many of the incident face's vertices penetrate: one
 vertex, two (an edge) or three or more (the face).
 
 Edge axes. The supporting edge of A along +normal and of B along -normal; the contact point is
 the midpoint of their closest points (clamped to the edges).
+
+Columns: quantities are (m,) arrays, vectors and matrices stacked as (3, m) and (9, m) (see
+:mod:`models.local_frame`). The face rows' quantities in the reference frame are read from the
+block by flat index (:class:`ReferenceFrame`), their coordinates taken in the cyclic order
+(axis, u, w) with ``u, w = axis + 1, axis + 2 (mod 3)``. A face manifold is returned as
+*entries*, one per manifold point (E in all), each naming its row and slot, so that no work
+is spent on empty slots. Sums follow :mod:`models.exact_scalar` term by term.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from models import box_features as bf
-from models.contacts import MAX_MANIFOLD_POINTS
+from models import clip
+from models.local_frame import AxisChoice, matvec
 from models.sat import sign_nonnegative
 
 #: Relative tolerance (x pair scale, metres) under which two candidate manifold points, or a
@@ -37,254 +45,263 @@ SNAP_TOL_REL = 1e-12
 WEIGHT_FLOOR_REL = 1e-12
 #: Quad vertices in cyclic order, as signs along the incident face's two in-plane axes.
 QUAD_SIGNS = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
-#: Rectangle corners as signs along (u, w).
-RECT_SIGNS = QUAD_SIGNS
+
+#: Axis ids 0-2 as a column, to compare a per-row axis with every component at once.
+_AXES = np.arange(3)[:, None]
+#: Bit weights of the x, y, z signs in a vertex id; of the two other axes j < l (by the edge's
+#: axis, row) in an edge id.
+_VERTEX_WEIGHTS = np.array([4, 2, 1])
+_EDGE_WEIGHTS = np.array([[0, 2, 1], [2, 0, 1], [2, 1, 0]]).reshape(-1)
 
 
-def _gather(array: np.ndarray, index: np.ndarray) -> np.ndarray:
-    """``array[..., index[...]]`` along the last axis; ``index`` has shape ``array.shape[:-1]``."""
-    return np.take_along_axis(array, index[..., None], axis=-1)[..., 0]
+def _frame_tables():
+    """Row ids into a LocalPose block of the reference-frame quantities, by case code.
+
+    Tables are (entries, codes). Codes: ``3 flip + ref`` (flip = B owns the face, ref = the
+    reference axis) for quantities along (axis, u, w) of the reference face; ``3 flip + k``
+    (k = the incident face axis) for the incident half-extents along (k, p, q); and
+    ``9 flip + 3 ref + k`` for the rotation, entry ``3 c + j`` = reference axis c (in the
+    order axis, u, w), incident axis j (in the order k, p, q).
+    """
+    half_ref, centre, normal, half_inc = (np.empty((3, 6), int) for _ in range(4))
+    rotation = np.empty((9, 18), int)
+    for flip, axis, c in np.ndindex(2, 3, 3):
+        code, cyclic = 3 * flip + axis, (axis + c) % 3
+        half_ref[c, code] = (3 if flip else 0) + cyclic  # reference box: B if flipped
+        centre[c, code] = (18 if flip else 15) + cyclic  # t, or R^T t (negated when read)
+        normal[c, code] = 6 + (3 * c + axis if flip else 3 * axis + c)  # row `axis` of R_ri
+        half_inc[c, code] = (0 if flip else 3) + cyclic  # incident box: A if flipped
+    for flip, ref, k, c, j in np.ndindex(2, 3, 3, 3, 3):
+        row, col = (ref + c) % 3, (k + j) % 3
+        rotation[3 * c + j, 9 * flip + 3 * ref + k] = 6 + (3 * col + row if flip else
+                                                           3 * row + col)
+    return half_ref, centre, normal, half_inc, rotation
 
 
-def _column(matrix: np.ndarray, index: np.ndarray) -> np.ndarray:
-    """Column ``index[n]`` of each (3, 3) matrix, shape (n, 3)."""
-    return np.take_along_axis(matrix, index[:, None, None], axis=2)[:, :, 0]
+_HALF_REF_ROWS, _CENTRE_ROWS, _NORMAL_ROWS, _HALF_INC_ROWS, _ROTATION_ROWS = _frame_tables()
 
 
-def incident_face(half_inc, rot_ri, t_ri, ref_axis, ref_sign):
-    """The incident face's vertices and their signs in the incident box's frame.
+class ReferenceFrame:
+    """Face-axis pairs seen from the reference box, read from a LocalPose by flat index.
+
+    The reference box is B where ``ref_is_b`` (then the roles of the half-extents swap, R is
+    transposed and the incident centre is ``-R^T t``), else A; reference-frame coordinates
+    are taken in the cyclic order (axis, u, w) of the reference face.
+
+    Parameters
+    ----------
+    pose : models.local_frame.LocalPose
+        A block of pairs in A's frame.
+    rows : ndarray of int, shape (m,)
+        The face-axis pairs among them.
+    ref_is_b : ndarray of bool, shape (m,)
+    ref_axis : ndarray of int, shape (m,)
+        Reference face axis (0-2) in the reference box.
+    """
+
+    def __init__(self, pose, rows, ref_is_b, ref_axis):
+        self.flat, self.stride, self.rows = pose.data.reshape(-1), pose.data.shape[1], rows
+        self.flip, self.ref_axis = ref_is_b, ref_axis
+        self.code = 3 * ref_is_b + ref_axis
+
+    def _gather(self, table, code):
+        """Entries ``pose.data[table[e, code[i]], rows[i]]``, shape (entries, m)."""
+        return np.take(self.flat, np.take(table * self.stride, code, axis=1) + self.rows)
+
+    def half_ref(self):
+        """Reference half-extents along (axis, u, w), (3, m) metres."""
+        return self._gather(_HALF_REF_ROWS, self.code)
+
+    def centre(self):
+        """Incident centre along (axis, u, w), (3, m) metres."""
+        value = self._gather(_CENTRE_ROWS, self.code)
+        return np.where(self.flip, -value, value)
+
+    def normal_row(self):
+        """Row ``ref_axis`` of the incident axes (as columns) in the reference frame, (3, m)."""
+        return self._gather(_NORMAL_ROWS, self.code)
+
+    def rotation(self, k):
+        """Incident axes k, p, q (columns) along (axis, u, w) (rows), (3, 3, m)."""
+        return self._gather(_ROTATION_ROWS, 3 * self.code + k).reshape(3, 3, -1)
+
+    def half_inc(self, k):
+        """Incident half-extents along k, p, q, (3, m) metres."""
+        return self._gather(_HALF_INC_ROWS, 3 * self.flip + k)
+
+
+def incident_quad(frame: ReferenceFrame):
+    """The incident face's vertices in the reference frame, coordinates (axis, u, w).
 
     Returns
     -------
-    vertices : ndarray, shape (n, 4, 3)
-        Quad vertices in the reference frame, cyclic order.
-    vertex_signs : ndarray, shape (n, 4, 3)
-        Signs (+-1) of each vertex in the incident box's frame.
-    face : ndarray, shape (n,)
-        Incident face id in the incident box.
+    vertices : ndarray, shape (4, 3, m)
+        Quad vertices in cyclic order (signs :data:`QUAD_SIGNS` along the face's axes p, q).
+    ref_sign : ndarray, shape (m,)
+        Side (+-1) of the reference face, facing the incident box.
+    k : ndarray of int, shape (m,)
+        Incident face normal axis, in the incident box's frame.
+    side : ndarray, shape (m,)
+        Incident face side (+-1) along k.
     """
-    n = t_ri.shape[0]
-    normal_in_inc = ref_sign[:, None] * np.take_along_axis(rot_ri, ref_axis[:, None, None], 1)[:, 0]
-    k = np.argmax(np.abs(normal_in_inc), axis=1)
-    side = -sign_nonnegative(_gather(normal_in_inc, k))
+    t_ref = frame.centre()
+    ref_sign = sign_nonnegative(t_ref[0])
+    n_inc = ref_sign * frame.normal_row()
+    size = np.abs(n_inc)
+    k = np.where(size[1] > size[0], 1, 0)
+    k = np.where(size[2] > np.maximum(size[0], size[1]), 2, k)
+    rot = frame.rotation(k)
+    h_k, h_p, h_q = frame.half_inc(k)
+    side = -sign_nonnegative(AxisChoice(k).pick(n_inc))
+    centre = t_ref + (side * h_k) * rot[:, 0]
+    along_p, along_q = h_p * rot[:, 1], h_q * rot[:, 2]
+    plus_p, minus_p = centre + along_p, centre - along_p
+    vertices = np.empty((4,) + centre.shape)
+    np.add(plus_p, along_q, out=vertices[0])
+    np.add(minus_p, along_q, out=vertices[1])
+    np.subtract(minus_p, along_q, out=vertices[2])
+    np.subtract(plus_p, along_q, out=vertices[3])
+    return vertices, ref_sign, k, side
+
+
+def _stable_first_two(depth):
+    """Indices of the deepest and the second deepest of 4 depths (4, m), ties to the lower."""
+    late01, late23 = depth[1] > depth[0], depth[3] > depth[2]
+    top01, top23 = np.maximum(depth[0], depth[1]), np.maximum(depth[2], depth[3])
+    low01, low23 = np.minimum(depth[0], depth[1]), np.minimum(depth[2], depth[3])
+    win01, win23 = late01.astype(np.intp), 2 + late23
+    in01 = top01 >= top23
+    first = np.where(in01, win01, win23)
+    second = np.where(in01, np.where(low01 >= top23, 1 - win01, win23),
+                      np.where(top01 >= low23, win01, 5 - win23))
+    return first, second
+
+
+def incident_feature(depth, k, side, tol):
+    """Incident feature id and rank (1 vertex, 2 edge, 3 face) from the 4 vertex depths.
+
+    The deepest vertex and the next one (stable order) name the edge; their sign vectors
+    are ``side`` along k and :data:`QUAD_SIGNS` along p, q = k + 1, k + 2 (mod 3).
+    """
+    first, second = _stable_first_two(depth)
+    touching = (depth >= -tol).sum(axis=0)
     p, q = (k + 1) % 3, (k + 2) % 3
-    centre = t_ri + (side * _gather(half_inc, k))[:, None] * _column(rot_ri, k)
-    edge_p = _gather(half_inc, p)[:, None] * _column(rot_ri, p)
-    edge_q = _gather(half_inc, q)[:, None] * _column(rot_ri, q)
-    a, b = QUAD_SIGNS[:, 0], QUAD_SIGNS[:, 1]
-    vertices = centre[:, None] + a[None, :, None] * edge_p[:, None] + b[None, :, None] * edge_q[:, None]
-
-    eye = np.eye(3)
-    signs = (side[:, None, None] * eye[k][:, None, :]
-             + a[None, :, None] * eye[p][:, None, :] + b[None, :, None] * eye[q][:, None, :])
-    face = bf.face_id(k, side < 0)
-    del n
-    return vertices, signs, face
-
-
-def _clip_candidates(quad, depth, half_u, half_w, tol):
-    """Candidate manifold points in the reference plane (closed-form quad/rectangle clip).
-
-    Parameters
-    ----------
-    quad : ndarray, shape (n, 4, 2)
-        Incident quad projected on the reference plane, (u, w) coordinates, cyclic order.
-    depth : ndarray, shape (n, 4)
-        Penetration depth of the quad vertices (metres).
-    half_u, half_w : ndarray, shape (n,)
-        Reference rectangle half-extents.
-    tol : ndarray, shape (n,)
-        Snap tolerance (metres).
-
-    Returns
-    -------
-    points : ndarray, shape (n, 24, 2)
-    depths : ndarray, shape (n, 24)
-    valid : ndarray of bool, shape (n, 24)
-    """
-    half = np.stack([half_u, half_w], axis=1)  # (n, 2)
-    # (a) quad vertices inside the rectangle, snapped onto it.
-    inside_rect = np.all(np.abs(quad) <= (half + tol[:, None])[:, None, :], axis=2)
-    vertex_points = np.clip(quad, -half[:, None, :], half[:, None, :])
-
-    # (b) rectangle corners inside the parallelogram, unless on a quad vertex.
-    corners = RECT_SIGNS[None] * half[:, None, :]  # (n, 4, 2)
-    centre = quad.mean(axis=1)
-    axis_a = 0.5 * (quad[:, 0] - quad[:, 1])  # half edge along the first in-plane axis
-    axis_b = 0.5 * (quad[:, 1] - quad[:, 2])
-    det = axis_a[:, 0] * axis_b[:, 1] - axis_a[:, 1] * axis_b[:, 0]
-    rel = corners - centre[:, None, :]
-    alpha = (rel[..., 0] * axis_b[:, None, 1] - rel[..., 1] * axis_b[:, None, 0]) / det[:, None]
-    beta = (axis_a[:, None, 0] * rel[..., 1] - axis_a[:, None, 1] * rel[..., 0]) / det[:, None]
-    len_a = np.linalg.norm(axis_a, axis=1)[:, None]
-    len_b = np.linalg.norm(axis_b, axis=1)[:, None]
-    inside_quad = ((np.abs(alpha) - 1.0) * len_a <= tol[:, None]) & (
-        (np.abs(beta) - 1.0) * len_b <= tol[:, None])
-    gap = np.linalg.norm(corners[:, :, None, :] - quad[:, None, :, :], axis=3).min(axis=2)
-    corner_valid = inside_quad & (gap > tol[:, None])
-    d_centre = depth.mean(axis=1)
-    d_a = 0.5 * (depth[:, 0] - depth[:, 1])
-    d_b = 0.5 * (depth[:, 1] - depth[:, 2])
-    corner_depth = d_centre[:, None] + alpha * d_a[:, None] + beta * d_b[:, None]
-
-    # (c) quad edges crossing the interior of a rectangle edge.
-    start, end = quad, np.roll(quad, -1, axis=1)  # (n, 4, 2)
-    d_start, d_end = depth, np.roll(depth, -1, axis=1)
-    line_coord = np.array([0, 0, 1, 1])  # u = +-h_u, then w = +-h_w
-    line_value = np.array([1.0, -1.0, 1.0, -1.0])[None] * half[:, line_coord]  # (n, 4)
-    s0 = start[:, :, line_coord]  # (n, 4 edges, 4 lines)
-    delta = end[:, :, line_coord] - s0
-    other0 = start[:, :, 1 - line_coord]
-    other_delta = end[:, :, 1 - line_coord] - other0
-    safe = np.where(delta == 0.0, 1.0, delta)
-    tau = (line_value[:, None, :] - s0) / safe
-    edge_len = np.linalg.norm(end - start, axis=2)[:, :, None]
-    other = other0 + tau * other_delta
-    other_half = half[:, 1 - line_coord][:, None, :]
-    cross_valid = ((delta != 0.0) & (tau * edge_len > tol[:, None, None])
-                   & ((1.0 - tau) * edge_len > tol[:, None, None])
-                   & (np.abs(other) < other_half - tol[:, None, None]))
-    cross_points = np.empty(tau.shape + (2,))
-    cross_points[..., 0] = np.where(line_coord == 0, line_value[:, None, :], other)
-    cross_points[..., 1] = np.where(line_coord == 1, line_value[:, None, :], other)
-    cross_depth = d_start[:, :, None] + tau * (d_end - d_start)[:, :, None]
-
-    n = quad.shape[0]
-    points = np.concatenate([vertex_points, corners, cross_points.reshape(n, 16, 2)], axis=1)
-    depths = np.concatenate([depth, corner_depth, cross_depth.reshape(n, 16)], axis=1)
-    valid = np.concatenate([inside_rect, corner_valid, cross_valid.reshape(n, 16)], axis=1)
-    return points, depths, valid & (depths >= -tol[:, None])
+    neg_k = side < 0
+    neg_p, neg_q = (first == 1) | (first == 2), first >= 2  # QUAD_SIGNS < 0
+    diff_p, diff_q = neg_p != ((second == 1) | (second == 2)), neg_q != (second >= 2)
+    vertex = (bf.VERTEX_BASE + np.take(_VERTEX_WEIGHTS, k) * neg_k
+              + np.take(_VERTEX_WEIGHTS, p) * neg_p + np.take(_VERTEX_WEIGHTS, q) * neg_q)
+    along = np.where(diff_p & diff_q, np.minimum(p, q), np.where(diff_p, p, q))
+    edge = (bf.EDGE_BASE + 4 * along + np.take(_EDGE_WEIGHTS, 3 * along + k) * neg_k
+            + np.take(_EDGE_WEIGHTS, 3 * along + p) * neg_p
+            + np.take(_EDGE_WEIGHTS, 3 * along + q) * neg_q)
+    feature = np.where(touching >= 3, bf.face_id(k, neg_k),
+                       np.where(touching == 2, edge, vertex))
+    return feature, np.clip(touching, 1, 3)
 
 
-def _incident_feature(depth, signs, face, tol):
-    """Incident feature id from the number of penetrating quad vertices, shape (n,)."""
-    order = np.argsort(-depth, axis=1, kind="stable")
-    deepest = np.take_along_axis(signs, order[:, 0, None, None], axis=1)[:, 0]
-    second = np.take_along_axis(signs, order[:, 1, None, None], axis=1)[:, 0]
-    touching = (depth >= -tol[:, None]).sum(axis=1)
-    vertex = bf.vertex_id(deepest[:, 0] < 0, deepest[:, 1] < 0, deepest[:, 2] < 0)
-    along = np.argmax(deepest != second, axis=1)
-    j = np.where(along == 0, 1, 0)
-    m = np.where(along == 2, 1, 2)
-    edge = bf.edge_id(along, _gather(deepest, j) < 0, _gather(deepest, m) < 0)
-    feature = np.where(touching >= 3, face, np.where(touching == 2, edge, vertex))
-    return feature, np.minimum(np.maximum(touching, 1), 3)
-
-
-def face_manifold(half_ref, half_inc, rot_ri, t_ri, ref_axis, ref_sign, scale):
-    """Clip the incident face against the reference face, for N face-axis contacts.
+def face_manifold(frame: ReferenceFrame, scale):
+    """Clip the incident face against the reference face, for m face-axis contacts.
 
     Parameters
     ----------
-    half_ref, half_inc : ndarray, shape (n, 3)
-        Half-extents of the reference and incident boxes (metres).
-    rot_ri : ndarray, shape (n, 3, 3)
-        Incident box axes as columns in the reference frame.
-    t_ri : ndarray, shape (n, 3)
-        Incident box centre in the reference frame (metres).
-    ref_axis : ndarray of int, shape (n,)
-        Reference face axis (0-2); ``ref_sign`` (n,) its side (+-1), facing the incident box.
-    scale : ndarray, shape (n,)
+    frame : ReferenceFrame
+        The m pairs seen from their reference boxes.
+    scale : ndarray, shape (m,)
         Pair scale (metres) for the tolerances.
 
     Returns
     -------
-    points : ndarray, shape (n, 8, 3)
-        Mid-surface manifold points in the reference frame, deepest first, zero padded.
-    depths : ndarray, shape (n, 8)
-    count : ndarray of int, shape (n,)
-    incident_feature : ndarray of int, shape (n,)
+    points : ndarray, shape (3, E)
+        Mid-surface manifold points in the reference frame (metres), one per entry.
+    depths : ndarray, shape (E,)
+        Their penetration depths (metres).
+    rows, slots : ndarray of int, shape (E,)
+        Row (0..m-1) and manifold slot (0 = deepest) of each entry, ordered by row, then slot.
+    count : ndarray of int8, shape (m,)
+    incident_feature : ndarray of int, shape (m,)
         Feature id in the incident box (vertex, edge or face).
-    touching_rank : ndarray of int, shape (n,)
+    touching_rank : ndarray of int, shape (m,)
         1 vertex, 2 edge, 3 face: the kind of the incident feature.
+    ref_face : ndarray of int, shape (m,)
+        Face id of the reference face in the reference box.
     """
     tol = SNAP_TOL_REL * scale
-    vertices, signs, face = incident_face(half_inc, rot_ri, t_ri, ref_axis, ref_sign)
-    u, w = (ref_axis + 1) % 3, (ref_axis + 2) % 3
-    height = _gather(half_ref, ref_axis)
-    depth = height[:, None] - ref_sign[:, None] * _gather(vertices, np.repeat(ref_axis[:, None], 4, 1))
-    quad = np.stack([_gather(vertices, np.repeat(u[:, None], 4, 1)),
-                     _gather(vertices, np.repeat(w[:, None], 4, 1))], axis=2)
-    points2, depths, valid = _clip_candidates(quad, depth, _gather(half_ref, u),
-                                              _gather(half_ref, w), tol)
-
-    key = np.where(valid, -depths, np.inf)
-    order = np.argsort(key, axis=1, kind="stable")[:, :MAX_MANIFOLD_POINTS]
-    keep = np.take_along_axis(valid, order, axis=1)
-    depths = np.where(keep, np.take_along_axis(depths, order, axis=1), 0.0)
-    points2 = np.take_along_axis(points2, order[:, :, None], axis=1)
-    points = np.zeros(depths.shape + (3,))
-    eye = np.eye(3)
-    points += eye[ref_axis][:, None, :] * (ref_sign * height)[:, None, None]
-    points -= eye[ref_axis][:, None, :] * (ref_sign[:, None] * 0.5 * depths)[:, :, None]
-    points += eye[u][:, None, :] * points2[:, :, 0:1] + eye[w][:, None, :] * points2[:, :, 1:2]
-    points *= keep[:, :, None]
-
-    feature, rank = _incident_feature(depth, signs, face, tol)
-    return points, depths, keep.sum(axis=1), feature, rank
+    ref_axis = frame.ref_axis
+    vertices, ref_sign, k, side = incident_quad(frame)
+    height, half_u, half_w = frame.half_ref()
+    depth = height - ref_sign * vertices[:, 0]
+    candidates = clip.clip_candidates(vertices[:, 1], vertices[:, 2], depth, half_u, half_w,
+                                      tol)
+    rows, slots, (u, w, depths), count = clip.manifold_order(candidates)
+    normal = np.take(ref_sign * height, rows) - np.take(ref_sign * 0.5, rows) * depths
+    axis = np.take(ref_axis, rows)
+    points = np.empty((3, len(rows)))
+    for c in range(3):  # coordinates (axis, u, w) back to (x, y, z)
+        points[c] = np.where(axis == c, normal, np.where(axis == (c + 2) % 3, u, w))
+    feature, rank = incident_feature(depth, k, side, tol)
+    return points, depths, rows, slots, count, feature, rank, bf.face_id(ref_axis, ref_sign < 0)
 
 
-def weighted_point(points, depths, count, scale):
-    """Depth-weighted mean of the manifold points, shape (n, 3).
+def weighted_point(points, depths, rows, m, scale) -> np.ndarray:
+    """Depth-weighted mean of the manifold points of m rows, shape (3, m).
 
-    Weights are ``max(depth, 0) + WEIGHT_FLOOR_REL * scale`` over the valid points, so the
-    point moves continuously as a face tilts through parallel.
+    Weights are ``max(depth, 0) + WEIGHT_FLOOR_REL * scale`` over each row's entries, summed
+    in manifold order (``np.add.at`` adds in index order), so the point moves continuously as
+    a face tilts through parallel. Rows without entries get 0.
     """
-    valid = np.arange(points.shape[1])[None, :] < count[:, None]
-    weight = np.where(valid, np.maximum(depths, 0.0) + (WEIGHT_FLOOR_REL * scale)[:, None], 0.0)
-    total = weight.sum(axis=1)
-    return np.einsum("nk,nkc->nc", weight, points) / np.where(total > 0, total, 1.0)[:, None]
+    weight = np.maximum(depths, 0.0) + (WEIGHT_FLOOR_REL * scale)[rows]
+    total, sums = np.zeros(m), np.zeros((3, m))
+    np.add.at(total, rows, weight)
+    for c in range(3):
+        np.add.at(sums[c], rows, weight * points[c])
+    return sums / np.where(total > 0, total, 1.0)
 
 
-def edge_contact(half_a, half_b, rotation, translation, normal, axis):
-    """Closest points of the supporting edges for N edge-edge contacts, in A's frame.
+def edge_contact(pose, normal, axis):
+    """Closest points of the supporting edges for m edge-edge contacts, in A's frame.
 
     Parameters
     ----------
-    half_a, half_b : ndarray, shape (n, 3)
-    rotation : ndarray, shape (n, 3, 3)
-        B's axes as columns in A's frame.
-    translation : ndarray, shape (n, 3)
-        B's centre in A's frame.
-    normal : ndarray, shape (n, 3)
+    pose : models.local_frame.LocalPose
+        The m pairs in A's frame.
+    normal : ndarray, shape (3, m)
         Unit normal from A towards B in A's frame.
-    axis : ndarray of int, shape (n,)
+    axis : ndarray of int, shape (m,)
         Cross axis ids (6-14).
 
     Returns
     -------
-    point : ndarray, shape (n, 3)
-        Midpoint of the two closest points (the mid-surface point), A's frame.
-    edge_a, edge_b : ndarray of int, shape (n,)
+    point : ndarray, shape (3, m)
+        Midpoint of the two closest points (the mid-surface point), A's frame (metres).
+    edge_a, edge_b : ndarray of int, shape (m,)
         Feature ids of the two edges.
     """
     i, j = (axis - 6) // 3, (axis - 6) % 3
-    eye = np.eye(3)
-    sign_a = sign_nonnegative(normal)
-    centre_a = half_a * sign_a * (1.0 - eye[i])
-    normal_in_b = np.einsum("nij,ni->nj", rotation, normal)
-    sign_b = -sign_nonnegative(normal_in_b)
-    centre_b_local = half_b * sign_b * (1.0 - eye[j])
-    centre_b = translation + np.einsum("nij,nj->ni", rotation, centre_b_local)
-    dir_a, dir_b = eye[i], _column(rotation, j)
-
+    on_i, along_a, along_b = i == _AXES, AxisChoice(i), AxisChoice(j)
+    r = pose.r
+    # Edge centres: +-h along the other axes, the side of the normal's sign (ties to +).
+    centre_a = np.where(on_i, 0.0, np.where(normal >= 0.0, pose.ha, -pose.ha))
+    normal_in_b = r[0:3] * normal[0] + r[3:6] * normal[1] + r[6:9] * normal[2]
+    local_b = np.where(j == _AXES, 0.0, np.where(normal_in_b >= 0.0, -pose.hb, pose.hb))
+    centre_b = pose.t + matvec(r, local_b)
+    dir_b = along_b.pick(r.reshape(3, 3, -1).transpose(1, 0, 2))  # column j of R
     offset = centre_b - centre_a
-    cos = np.einsum("nc,nc->n", dir_a, dir_b)
-    sine2 = np.einsum("nc,nc->n", np.cross(dir_a, dir_b), np.cross(dir_a, dir_b))
-    proj_a = np.einsum("nc,nc->n", offset, dir_a)
-    proj_b = np.einsum("nc,nc->n", offset, dir_b)
+    cos = along_a.pick(dir_b)
+    square = dir_b * dir_b
+    sine2 = along_a.pick(np.array([square[1] + square[2], square[0] + square[2],
+                                   square[0] + square[1]]))
+    proj_a = along_a.pick(offset)
+    proj_b = offset[0] * dir_b[0] + offset[1] * dir_b[1] + offset[2] * dir_b[2]
     safe = np.where(sine2 > 0, sine2, 1.0)
-    s = np.clip((proj_a - cos * proj_b) / safe, -_gather(half_a, i), _gather(half_a, i))
-    r = np.clip((cos * proj_a - proj_b) / safe, -_gather(half_b, j), _gather(half_b, j))
-    closest_a = centre_a + s[:, None] * dir_a
-    closest_b = centre_b + r[:, None] * dir_b
-    point = 0.5 * (closest_a + closest_b)
+    reach_a, reach_b = along_a.pick(pose.ha), along_b.pick(pose.hb)
+    s = np.minimum(np.maximum((proj_a - cos * proj_b) / safe, -reach_a), reach_a)
+    t = np.minimum(np.maximum((cos * proj_a - proj_b) / safe, -reach_b), reach_b)
+    point = 0.5 * (np.where(on_i, s, centre_a) + centre_b + t * dir_b)
+    return point, _edge_id(i, normal < 0), _edge_id(j, normal_in_b >= 0)
 
-    def others(k):
-        return np.where(k == 0, 1, 0), np.where(k == 2, 1, 2)
 
-    ja, la = others(i)
-    edge_a = bf.edge_id(i, _gather(sign_a, ja) < 0, _gather(sign_a, la) < 0)
-    jb, lb = others(j)
-    edge_b = bf.edge_id(j, _gather(sign_b, jb) < 0, _gather(sign_b, lb) < 0)
-    return point, edge_a, edge_b
+def _edge_id(axis, negative):
+    """Edge id along ``axis`` (m,) from the per-axis negative signs (3, m) of its centre."""
+    return bf.edge_id(axis, np.where(axis == 0, negative[1], negative[0]),
+                      np.where(axis == 2, negative[1], negative[2]))

@@ -1,6 +1,6 @@
 """Separating-axis test for N box pairs, in A's local frame.
 
-Stage 1 of the exact solver (see :mod:`models.exact`). Box A is centred at the origin with
+Stage 2 of the exact solver (see :mod:`models.exact`). Box A is centred at the origin with
 identity orientation; box B has centre ``t`` and rotation ``R`` (B's axes as the columns of R).
 
 The 15 candidate axes are A's face normals (axis ids 0-2), B's face normals (3-5) and the
@@ -18,10 +18,18 @@ wins over every cross axis unless a cross axis overlaps less by more than
 :data:`TIE_TOL_REL` times the pair's scale; among face axes within that tolerance of the
 minimum, the lowest axis id wins (A before B; x before y before z). There is no
 percentage bias ("fudge factor") towards face axes.
+
+Layout: the vectorised solver works on columns (:mod:`models.local_frame`); overlaps are
+(15, m). Only the chosen axis is kept as a vector: :func:`unit_axis` recomputes it from its
+id with the same formulas. Every formula sums its terms in the order of
+:mod:`models.exact_scalar`, so both paths agree to the last bit. :func:`overlaps` keeps the
+row-major (n, 15) interface.
 """
 from __future__ import annotations
 
 import numpy as np
+
+from models.local_frame import LocalPose, matvec_transposed
 
 #: Relative tolerance (x pair scale, metres) for axis ties: rounding of an overlap is a few
 #: ulps of the scale, so differences below this are noise, not geometry.
@@ -35,6 +43,8 @@ CONTACT_TOL_REL = 1e-12
 EDGE_SKEW_TOL_REL = 1e-12
 #: Overlap assigned to skipped axes: they neither separate nor win.
 SKIPPED_AXIS_OVERLAP = np.inf
+#: Axis ids 0-2 as a column, to compare a per-row axis with every component at once.
+_AXES = np.arange(3)[:, None]
 
 
 def sign_nonnegative(x: np.ndarray) -> np.ndarray:
@@ -47,32 +57,63 @@ def pair_scale(half_a: np.ndarray, half_b: np.ndarray) -> np.ndarray:
     return half_a.max(axis=-1) + half_b.max(axis=-1)
 
 
-def cross_axes(rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The 9 edge-edge cross products ``e_i x b_j`` in A's frame.
+def _face_overlaps(pose: LocalPose, over: np.ndarray) -> None:
+    """Overlaps along the 6 face normals (ids 0-5), written into ``over[0:6]``."""
+    (a0, a1, a2), (b0, b1, b2) = pose.ha, pose.hb
+    q = np.abs(pose.r)
+    over[0:3] = pose.ha + q[0::3] * b0 + q[1::3] * b1 + q[2::3] * b2 - np.abs(pose.t)
+    over[3:6] = pose.hb + q[0:3] * a0 + q[3:6] * a1 + q[6:9] * a2 - np.abs(pose.tb)
+
+
+def _cross_overlaps(pose: LocalPose, over: np.ndarray) -> None:
+    """Overlaps along the 9 edge-edge cross products (ids 6-14), written into ``over[6:15]``.
+
+    ``e_i x b_j`` has components ``-b_j[q]`` at p and ``b_j[p]`` at q (p, q = i + 1, i + 2
+    mod 3) and 0 at i; the zero terms of the scalar path's sums are exact and left out. The
+    three axes of one i are computed together, as (3 j, m) arrays.
+    """
+    ha, hb, r, t = pose.ha, pose.hb, pose.r, pose.t
+    skew_tol = EDGE_SKEW_TOL_REL * pose.scale
+    square = r * r
+    for i in range(3):
+        p, q = (i + 1) % 3, (i + 2) % 3
+        r_p, r_q = r[3 * p:3 * p + 3], r[3 * q:3 * q + 3]  # row p, q of R: b_j[p], b_j[q]
+        sine = np.sqrt(square[3 * p:3 * p + 3] + square[3 * q:3 * q + 3])
+        valid = sine * 2.0 * np.maximum(ha[i], hb) > skew_tol
+        divisor = sine if valid.all() else np.where(valid, sine, 1.0)
+        u_p, u_q = -(r_q / divisor), r_p / divisor  # unit axis components at p and q
+        dots = u_p[:, None] * r_p + u_q[:, None] * r_q  # u_j . b_k, (3 j, 3 k, m)
+        radius_b = hb * np.abs(dots)
+        radius_b = radius_b[:, 0] + radius_b[:, 1] + radius_b[:, 2]
+        radius_a = ha[p] * np.abs(u_p) + ha[q] * np.abs(u_q)
+        cross = over[6 + 3 * i:9 + 3 * i]
+        np.subtract(radius_a + radius_b, np.abs(u_p * t[p] + u_q * t[q]), out=cross)
+        if divisor is not sine:
+            cross[~valid] = SKIPPED_AXIS_OVERLAP
+
+
+def overlap_columns(pose: LocalPose) -> np.ndarray:
+    """Overlap of the two boxes along each of the 15 axes, for m pairs in columns.
 
     Parameters
     ----------
-    rotation : ndarray, shape (n, 3, 3)
-        B's axes as columns, in A's frame.
+    pose : LocalPose
+        The pairs in A's frame (metres).
 
     Returns
     -------
-    axes : ndarray, shape (n, 9, 3)
-        Unnormalised cross products, row ``3 i + j``.
-    sine : ndarray, shape (n, 9)
-        Their lengths, the sine of the angle between edge i of A and edge j of B.
+    ndarray, shape (15, m)
+        Overlap (metres) along each axis; negative where the axis separates, +inf where
+        a degenerate cross axis was skipped.
     """
-    r0, r1, r2 = rotation[:, 0, :], rotation[:, 1, :], rotation[:, 2, :]
-    zero = np.zeros_like(r0)
-    c0 = np.stack([zero, -r2, r1], axis=-1)  # e_x x b_j
-    c1 = np.stack([r2, zero, -r0], axis=-1)  # e_y x b_j
-    c2 = np.stack([-r1, r0, zero], axis=-1)  # e_z x b_j
-    axes = np.stack([c0, c1, c2], axis=1).reshape(-1, 9, 3)
-    return axes, np.sqrt(np.einsum("nkc,nkc->nk", axes, axes))
+    over = np.empty((15, pose.data.shape[1]))
+    _face_overlaps(pose, over)
+    _cross_overlaps(pose, over)
+    return over
 
 
 def overlaps(half_a, half_b, rotation, translation):
-    """Overlap of the two boxes along each of the 15 axes.
+    """Row-major interface to :func:`overlap_columns`.
 
     Parameters
     ----------
@@ -86,68 +127,114 @@ def overlaps(half_a, half_b, rotation, translation):
     Returns
     -------
     overlap : ndarray, shape (n, 15)
-        Overlap (metres) along each axis; negative where the axis separates, +inf where
-        a degenerate cross axis was skipped.
+        Overlap (metres) along each axis; +inf where a degenerate cross axis was skipped.
     unit_axes : ndarray, shape (n, 15, 3)
         Unit axes in A's frame (zeros for skipped axes), not yet oriented A -> B.
     """
-    n = translation.shape[0]
-    abs_rot = np.abs(rotation)
-    t_in_b = np.einsum("nij,ni->nj", rotation, translation)
-    face_a = half_a + np.einsum("nij,nj->ni", abs_rot, half_b) - np.abs(translation)
-    face_b = half_b + np.einsum("nij,ni->nj", abs_rot, half_a) - np.abs(t_in_b)
-
-    axes, sine = cross_axes(rotation)
-    longer_edge = 2.0 * np.maximum(half_a[:, :, None], half_b[:, None, :]).reshape(n, 9)
-    scale = pair_scale(half_a, half_b)
-    valid = sine * longer_edge > EDGE_SKEW_TOL_REL * scale[:, None]
-    unit = axes / np.where(valid, sine, 1.0)[:, :, None]
-    unit[~valid] = 0.0
-    radius_a = np.abs(unit) @ half_a[:, :, None]
-    radius_b = np.abs(unit @ rotation) @ half_b[:, :, None]
-    distance = np.abs(np.einsum("nkc,nc->nk", unit, translation))
-    cross = radius_a[..., 0] + radius_b[..., 0] - distance
-    cross[~valid] = SKIPPED_AXIS_OVERLAP
-
-    unit_axes = np.empty((n, 15, 3))
-    unit_axes[:, 0:3, :] = np.eye(3)
-    unit_axes[:, 3:6, :] = np.swapaxes(rotation, 1, 2)
-    unit_axes[:, 6:, :] = unit
-    return np.concatenate([face_a, face_b, cross], axis=1), unit_axes
+    n = np.shape(translation)[0]
+    pose = LocalPose(np.empty((LocalPose.ROWS, n)))
+    pose.ha[:], pose.hb[:] = np.asarray(half_a).T, np.asarray(half_b).T
+    pose.r[:] = np.asarray(rotation).reshape(n, 9).T
+    pose.t[:] = np.asarray(translation).T
+    matvec_transposed(pose.r.reshape(3, 3, -1), pose.t, pose.tb)
+    pose.scale[:] = pair_scale(np.asarray(half_a), np.asarray(half_b))
+    over = overlap_columns(pose)
+    unit = np.array([unit_axis(pose, np.full(n, k))[0] for k in range(15)])  # (15, 3, n)
+    unit = np.where(np.isinf(over)[:, None, :], 0.0, unit)
+    return over.T.copy(), unit.transpose(2, 0, 1).copy()
 
 
-def choose_axis(overlap: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _first_true(flags: np.ndarray) -> np.ndarray:
+    """Index of the first True row of ``flags`` (k, m) per column (k if none), int8 (m,)."""
+    index = np.full(flags.shape[1], flags.shape[0], np.int8)
+    for k in range(flags.shape[0] - 1, -1, -1):
+        index = np.where(flags[k], np.int8(k), index)
+    return index
+
+
+def _at(values: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``values[index[i], i]`` for values (k, m) and index (m,)."""
+    m = values.shape[1]
+    return np.take(values.reshape(-1), index * m + np.arange(m))
+
+
+def choose_axis(overlap: np.ndarray, scale: np.ndarray):
     """Pick each pair's contact axis by least overlap and the documented tie rule.
 
     Parameters
     ----------
-    overlap : ndarray, shape (n, 15)
-        From :func:`overlaps`.
-    scale : ndarray, shape (n,)
-        Pair scale (metres) from :func:`pair_scale`.
+    overlap : ndarray, shape (15, m)
+        From :func:`overlap_columns`.
+    scale : ndarray, shape (m,)
+        Pair scale (metres).
 
     Returns
     -------
-    colliding : ndarray of bool, shape (n,)
+    colliding : ndarray of bool, shape (m,)
         True where every axis overlaps (within :data:`CONTACT_TOL_REL`).
-    axis : ndarray of int64, shape (n,)
+    axis : ndarray of int8, shape (m,)
         Contact axis for colliding pairs; the axis of largest separation otherwise.
+    depth : ndarray, shape (m,)
+        Overlap along the contact axis, clamped at 0 (metres); 0 for separated pairs.
     """
     tie = TIE_TOL_REL * scale
-    face = overlap[:, :6]
-    face_min = face.min(axis=1)
-    face_axis = np.argmax(face <= (face_min + tie)[:, None], axis=1)
-    cross_axis = np.argmin(overlap[:, 6:], axis=1)
-    cross_min = np.take_along_axis(overlap[:, 6:], cross_axis[:, None], axis=1)[:, 0]
+    face, cross = overlap[:6], overlap[6:]
+    face_min = np.minimum.reduce(face)
+    face_axis = _first_true(face <= face_min + tie)
+    cross_min = np.minimum.reduce(cross)
+    cross_axis = _first_true(cross == cross_min) + np.int8(6)
     use_cross = cross_min < face_min - tie
-    axis = np.where(use_cross, cross_axis + 6, face_axis)
+    axis = np.where(use_cross, cross_axis, face_axis)
+    chosen = np.where(use_cross, cross_min, _at(face, face_axis.astype(np.intp)))
+    colliding = np.minimum(face_min, cross_min) >= -CONTACT_TOL_REL * scale
+    if not colliding.all():
+        separating = np.where(face_min <= cross_min, _first_true(face == face_min), cross_axis)
+        axis = np.where(colliding, axis, separating)
+    depth = np.where(colliding, np.maximum(chosen, 0.0), 0.0)
+    return colliding, axis, depth
 
-    colliding = overlap.min(axis=1) >= -CONTACT_TOL_REL * scale
-    separating = np.argmin(overlap, axis=1)
-    return colliding, np.where(colliding, axis, separating)
+
+def unit_axis(pose: LocalPose, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Axis ``axis[i]`` of pair i, recomputed with the formulas of the overlaps.
+
+    Parameters
+    ----------
+    pose : LocalPose
+        m pairs in A's frame.
+    axis : ndarray of int, shape (m,)
+        Axis ids (0-14); a degenerate cross axis gives a finite, meaningless vector.
+
+    Returns
+    -------
+    unit : ndarray, shape (3, m)
+        The unit axis in A's frame, not oriented.
+    projection : ndarray, shape (m,)
+        ``unit . t``, the signed distance of B's centre along it (metres).
+    """
+    m = len(axis)
+    k = axis.astype(np.intp)
+    r, t = pose.r.reshape(-1), pose.t.reshape(-1)
+    unit, projection = np.empty((3, m)), np.empty(m)
+    rows = np.flatnonzero(k < 3)  # A's face normals: e_k
+    unit[:, rows] = (k[rows] == _AXES).astype(np.float64)
+    projection[rows] = np.take(t, k[rows] * m + rows)
+    rows = np.flatnonzero((k >= 3) & (k < 6))  # B's face normals: column j of R
+    j = k[rows] - 3
+    unit[:, rows] = np.take(r, (3 * _AXES + j) * m + rows)
+    projection[rows] = np.take(pose.tb.reshape(-1), j * m + rows)
+    rows = np.flatnonzero(k >= 6)  # e_i x b_j, as in _cross_overlaps
+    i, j = np.divmod(k[rows] - 6, 3)
+    p, q = (i + 1) % 3, (i + 2) % 3
+    b_p, b_q = np.take(r, (3 * p + j) * m + rows), np.take(r, (3 * q + j) * m + rows)
+    sine = np.sqrt(b_p * b_p + b_q * b_q)
+    sine = np.where(sine > 0.0, sine, 1.0)
+    u_p, u_q = -(b_q / sine), b_p / sine
+    projection[rows] = u_p * np.take(t, p * m + rows) + u_q * np.take(t, q * m + rows)
+    unit[:, rows] = np.where(_AXES == i, 0.0, np.where(_AXES == p, u_p, u_q))
+    return unit, projection
 
 
-def oriented_normal(unit_axes, axis, translation):
-    """The chosen unit axis oriented from A towards B, in A's frame, shape (n, 3)."""
-    chosen = np.take_along_axis(unit_axes, axis[:, None, None], axis=1)[:, 0, :]
-    return chosen * sign_nonnegative(np.einsum("nc,nc->n", chosen, translation))[:, None]
+def oriented_normal(pose: LocalPose, axis: np.ndarray) -> np.ndarray:
+    """Axis ``axis[i]`` of pair i oriented from A towards B, in A's frame, shape (3, m)."""
+    unit, projection = unit_axis(pose, axis)
+    return unit * sign_nonnegative(projection)
