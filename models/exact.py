@@ -37,6 +37,7 @@ from models import local_frame as lf
 from models import manifold as mf
 from models import sat
 from models.contacts import Contacts
+from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from models.exact_scalar import box_box_one, single_pair
 from models.rotations import QUATERNION_MIN_NORM, validate_quaternion
 
@@ -84,9 +85,24 @@ def _checked_inputs(values):
         bad = ~(size > 0).all(axis=1)
         if bad.any():
             raise InvalidBoxError(name, np.flatnonzero(bad), "sizes must be > 0")
+        bad = ~((size >= SIZE_MIN_M) & (size <= SIZE_MAX_M)).all(axis=1)
+        if bad.any():
+            raise InvalidBoxError(name, np.flatnonzero(bad),
+                                  f"sizes must be in [{SIZE_MIN_M:g}, {SIZE_MAX_M:g}] m")
+    for name, position in (("position_a", rows[1]), ("position_b", rows[4])):
+        bad = ~(np.abs(position) <= POSITION_MAX_M).all(axis=1)
+        if bad.any():
+            raise InvalidBoxError(name, np.flatnonzero(bad),
+                                  f"|coordinates| must be <= {POSITION_MAX_M:g} m")
     rows[2] = validate_quaternion(rows[2])
     rows[5] = validate_quaternion(rows[5])
     return tuple(rows)
+
+
+def _in_domain(rows) -> bool:
+    """Whole-array test: every size and position within :mod:`models.domain`."""
+    sizes_ok = all(((r >= SIZE_MIN_M) & (r <= SIZE_MAX_M)).all() for r in (rows[0], rows[3]))
+    return sizes_ok and all((np.abs(r) <= POSITION_MAX_M).all() for r in (rows[1], rows[4]))
 
 
 def _unit_quaternions(q: np.ndarray):
@@ -119,7 +135,7 @@ def prepare_inputs(size_a, position_a, quaternion_a, size_b, position_b, quatern
             return _checked_inputs(values)
         rows.append(array.reshape(-1, width))
     lengths = {len(r) for r in rows} - {1}
-    if len(lengths) > 1 or not ((rows[0] > 0).all() and (rows[3] > 0).all()):
+    if len(lengths) > 1 or not _in_domain(rows):
         return _checked_inputs(values)
     n = lengths.pop() if lengths else 1
     for k in (2, 5):
@@ -135,9 +151,9 @@ def box_box(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b) 
     Parameters
     ----------
     size_a, size_b : array_like, shape (3,) or (n, 3)
-        Full edge lengths (metres), > 0.
+        Full edge lengths (metres), in [1e-6, 1e6] (:mod:`models.domain`).
     position_a, position_b : array_like, shape (3,) or (n, 3)
-        Box centres in the world frame (metres).
+        Box centres in the world frame (metres), |coordinates| <= 1e9.
     quaternion_a, quaternion_b : array_like, shape (4,) or (n, 4)
         Orientations (w, x, y, z); normalised here, norm < 1e-6 is an error.
 
@@ -149,7 +165,8 @@ def box_box(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b) 
     Raises
     ------
     InvalidBoxError, models.rotations.InvalidRotationError
-        Non-finite input, size <= 0, degenerate quaternion or non-broadcasting shapes.
+        Non-finite input, size <= 0 or outside the domain, degenerate quaternion or
+        non-broadcasting shapes; the error names the field and the rows.
     """
     single = single_pair(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
     if single is not None:

@@ -13,6 +13,7 @@ import numpy as np
 
 from models import box_features as bf
 from models import contacts as ct
+from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from models.manifold import QUAD_SIGNS, SNAP_TOL_REL, WEIGHT_FLOOR_REL
 from models.rotations import QUATERNION_MIN_NORM
 from models.sat import CONTACT_TOL_REL, EDGE_SKEW_TOL_REL, TIE_TOL_REL
@@ -236,8 +237,12 @@ def single_pair(size_a, position_a, quaternion_a, size_b, position_b, quaternion
         if not all(math.isfinite(v) for v in row):
             return None
         values.append(row)
-    if min(values[0]) <= 0.0 or min(values[3]) <= 0.0:
-        return None
+    for sizes in (values[0], values[3]):
+        if not (min(sizes) >= SIZE_MIN_M and max(sizes) <= SIZE_MAX_M):
+            return None
+    for position in (values[1], values[4]):
+        if max(abs(v) for v in position) > POSITION_MAX_M:
+            return None
     values[2], values[5] = _unit_quaternion(values[2]), _unit_quaternion(values[5])
     return None if values[2] is None or values[5] is None else values
 

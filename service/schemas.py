@@ -16,13 +16,8 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from models.contacts import CONTACT_TYPES
+from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M  # the solver's input domain
 
-#: Largest accepted |coordinate| of a position, metres (1e6 km: any simulated world).
-POSITION_MAX_M = 1e9
-#: Smallest and largest accepted edge length, metres (1 um to 1000 km). The exact solver loses
-#: finiteness far outside this range (sizes near 1e-300 or 1e300).
-SIZE_MIN_M = 1e-6
-SIZE_MAX_M = 1e6
 #: Largest accepted |component| of a quaternion / Euler angle (radians); quaternions are
 #: normalised, so the scale carries no meaning, but it must not overflow.
 ANGLE_MAX = 1e6

@@ -3,7 +3,8 @@ huge boxes, needles, gimbal lock. Every answer must be finite."""
 import numpy as np
 import pytest
 
-from models.exact import box_box
+from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
+from models.exact import InvalidBoxError, box_box
 from models.rotations import euler_to_matrix, euler_to_quaternion, matrix_to_quaternion
 from tests.models.helpers import assert_finite
 
@@ -146,3 +147,34 @@ def test_euler_input_at_gimbal_lock_matches_the_matrix(pitch):
     np.testing.assert_allclose(a.point, b.point, atol=1e-12)
     np.testing.assert_allclose(a.normal, b.normal, atol=1e-12)
     assert a.contact_type_code[0] == b.contact_type_code[0]
+
+
+@pytest.mark.parametrize("field,value", [
+    ("size_a", [1e-7, 1, 1]), ("size_b", [1, 1, 2e6]), ("size_a", [1e300, 1, 1]),
+    ("position_b", [0, 0, 2e9]),
+])
+def test_inputs_outside_the_domain_are_refused_with_the_field(field, value):
+    args = dict(size_a=[1, 1, 1], position_a=[0, 0, 0], quaternion_a=IDENTITY,
+                size_b=[1, 1, 1], position_b=[0, 0, 0.9], quaternion_b=IDENTITY)
+    for batch in (False, True):
+        args[field] = np.array([value, value]) if batch else value
+        with pytest.raises(InvalidBoxError) as info:
+            box_box(**args)
+        assert info.value.field == field
+
+
+def test_the_edges_of_the_domain_give_finite_answers():
+    # Every combination of the smallest and largest boxes, at the farthest positions, in
+    # random orientations: the answers are finite on both paths.
+    rng = np.random.default_rng(11)
+    n = 4000
+    size_a = 10.0 ** rng.uniform(np.log10(SIZE_MIN_M), np.log10(SIZE_MAX_M), (n, 3))
+    size_b = np.where(rng.random((n, 1)) < 0.5, SIZE_MIN_M, SIZE_MAX_M) * rng.uniform(1, 2, (n, 3))
+    size_b = np.clip(size_b, SIZE_MIN_M, SIZE_MAX_M)
+    position_a = rng.choice([-1.0, 1.0], (n, 3)) * POSITION_MAX_M * rng.uniform(0.5, 1, (n, 3))
+    position_b = np.clip(position_a + rng.normal(size=(n, 3)) * size_a.max(1, keepdims=True),
+                         -POSITION_MAX_M, POSITION_MAX_M)
+    qa, qb = rng.normal(size=(n, 4)), rng.normal(size=(n, 4))
+    assert_finite(box_box(size_a, position_a, qa, size_b, position_b, qb))
+    for i in range(0, n, 40):
+        assert_finite(box_box(size_a[i], position_a[i], qa[i], size_b[i], position_b[i], qb[i]))
