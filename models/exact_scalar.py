@@ -22,6 +22,7 @@ _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]
 _FACE_REF_CODES = (0, ct.FACE_VERTEX, ct.FACE_EDGE, ct.FACE_FACE)
 _FACE_INC_CODES = (0, ct.VERTEX_FACE, ct.EDGE_FACE, ct.FACE_FACE)
 _EXACT_NAME = np.array(["exact"])
+_PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
 
 
 def _sgn(x: float) -> float:
@@ -97,43 +98,51 @@ def _choose_axis(over, scale):
 
 
 def _clip(quad, depth, half_u, half_w, tol):
-    """Candidate points (u, w, depth) in the order of :func:`models.manifold._clip_candidates`."""
+    """Valid candidate points (u, w, depth), in the candidate order of :mod:`models.clip`.
+
+    Same tests and arithmetic as the batch path, with early exits: a rectangle corner is only
+    tested if it is not above the reference face, and a quad edge only crosses the rectangle
+    usefully if one of its ends is not above it (depth is linear along the edge).
+    """
     out = []
     for (pu, pw), d in zip(quad, depth):
-        if abs(pu) <= half_u + tol and abs(pw) <= half_w + tol and d >= -tol:
+        if d >= -tol and abs(pu) <= half_u + tol and abs(pw) <= half_w + tol:
             out.append((min(max(pu, -half_u), half_u), min(max(pw, -half_w), half_w), d))
-        else:
-            out.append(None)
-    cu = 0.25 * sum(p[0] for p in quad)
-    cw = 0.25 * sum(p[1] for p in quad)
-    a = (0.5 * (quad[0][0] - quad[1][0]), 0.5 * (quad[0][1] - quad[1][1]))
-    b = (0.5 * (quad[1][0] - quad[2][0]), 0.5 * (quad[1][1] - quad[2][1]))
-    det = a[0] * b[1] - a[1] * b[0]
-    len_a, len_b = math.hypot(*a), math.hypot(*b)
-    d_c, d_a, d_b = 0.25 * sum(depth), 0.5 * (depth[0] - depth[1]), 0.5 * (depth[1] - depth[2])
+    cu = 0.25 * (quad[0][0] + quad[1][0] + quad[2][0] + quad[3][0])
+    cw = 0.25 * (quad[0][1] + quad[1][1] + quad[2][1] + quad[3][1])
+    a0, a1 = 0.5 * (quad[0][0] - quad[1][0]), 0.5 * (quad[0][1] - quad[1][1])
+    b0, b1 = 0.5 * (quad[1][0] - quad[2][0]), 0.5 * (quad[1][1] - quad[2][1])
+    det = a0 * b1 - a1 * b0
+    len_a, len_b = math.hypot(a0, a1), math.hypot(b0, b1)
+    d_c = 0.25 * (depth[0] + depth[1] + depth[2] + depth[3])
+    d_a, d_b = 0.5 * (depth[0] - depth[1]), 0.5 * (depth[1] - depth[2])
     for su, sw in _QUAD:
         ru, rw = su * half_u - cu, sw * half_w - cw
-        alpha = (ru * b[1] - rw * b[0]) / det
-        beta = (a[0] * rw - a[1] * ru) / det
+        alpha = (ru * b1 - rw * b0) / det
+        beta = (a0 * rw - a1 * ru) / det
         d = d_c + alpha * d_a + beta * d_b
-        gap = min(math.hypot(su * half_u - p[0], sw * half_w - p[1]) for p in quad)
-        inside = (abs(alpha) - 1.0) * len_a <= tol and (abs(beta) - 1.0) * len_b <= tol
-        out.append((su * half_u, sw * half_w, d) if inside and gap > tol and d >= -tol else None)
-    lines = ((0, half_u), (0, -half_u), (1, half_w), (1, -half_w))
+        if d < -tol or (abs(alpha) - 1.0) * len_a > tol or (abs(beta) - 1.0) * len_b > tol:
+            continue
+        if min(math.hypot(su * half_u - p[0], sw * half_w - p[1]) for p in quad) > tol:
+            out.append((su * half_u, sw * half_w, d))
     halves = (half_u, half_w)
     for m in range(4):
         start, end = quad[m], quad[(m + 1) % 4]
         d0, d1 = depth[m], depth[(m + 1) % 4]
+        if d0 < -tol and d1 < -tol:
+            continue
         edge_len = math.hypot(end[0] - start[0], end[1] - start[1])
-        for coord, value in lines:
+        for coord, value in ((0, half_u), (0, -half_u), (1, half_w), (1, -half_w)):
             delta = end[coord] - start[coord]
-            tau = (value - start[coord]) / delta if delta != 0.0 else 0.0
+            if delta == 0.0:
+                continue
+            tau = (value - start[coord]) / delta
+            if not (tau * edge_len > tol and (1.0 - tau) * edge_len > tol):
+                continue
             other = start[1 - coord] + tau * (end[1 - coord] - start[1 - coord])
             d = d0 + tau * (d1 - d0)
-            ok = (delta != 0.0 and tau * edge_len > tol and (1.0 - tau) * edge_len > tol
-                  and abs(other) < halves[1 - coord] - tol and d >= -tol)
-            point = (value, other) if coord == 0 else (other, value)
-            out.append((point[0], point[1], d) if ok else None)
+            if abs(other) < halves[1 - coord] - tol and d >= -tol:
+                out.append((value, other, d) if coord == 0 else (other, value, d))
     return out
 
 
@@ -173,7 +182,7 @@ def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
     height = h_ref[ref_axis]
     depth = [height - ref_sign * v[ref_axis] for v in vertices]
     quad = [(v[u], v[w]) for v in vertices]
-    candidates = [c for c in _clip(quad, depth, h_ref[u], h_ref[w], tol) if c is not None]
+    candidates = _clip(quad, depth, h_ref[u], h_ref[w], tol)
     candidates.sort(key=lambda c: -c[2])  # stable, as the vectorised argsort
     points = []
     for cu, cw, d in candidates[: ct.MAX_MANIFOLD_POINTS]:
@@ -221,6 +230,18 @@ def _unit_quaternion(value):
     return [v / norm for v in value] if norm >= QUATERNION_MIN_NORM else None
 
 
+def _flat_floats(value):
+    """A vector as a list of floats: lists and 1-D arrays directly, anything else via NumPy."""
+    if type(value) is list and all(type(v) is float for v in value):
+        return value
+    if type(value) is np.ndarray and value.ndim == 1 and value.dtype == np.float64:
+        return value.tolist()
+    try:
+        return np.asarray(value, dtype=np.float64).reshape(-1).tolist()
+    except (TypeError, ValueError):
+        return None
+
+
 def single_pair(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b):
     """The six inputs of one pair as validated float lists, or None.
 
@@ -230,11 +251,8 @@ def single_pair(size_a, position_a, quaternion_a, size_b, position_b, quaternion
     values = []
     for value, width in ((size_a, 3), (position_a, 3), (quaternion_a, 4), (size_b, 3),
                          (position_b, 3), (quaternion_b, 4)):
-        flat = np.asarray(value, dtype=np.float64).reshape(-1)
-        if flat.shape[0] != width:
-            return None
-        row = flat.tolist()
-        if not all(math.isfinite(v) for v in row):
+        row = _flat_floats(value)
+        if row is None or len(row) != width or not all(math.isfinite(v) for v in row):
             return None
         values.append(row)
     for sizes in (values[0], values[3]):
@@ -265,10 +283,18 @@ def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion
     hb = [0.5 * v for v in size_b]
     pa, pb = position_a, position_b
     rot_a, rot_b = _quat_matrix(quaternion_a), _quat_matrix(quaternion_b)
-    rot_a_t = _transpose(rot_a)
-    rot = tuple(tuple(_dot(rot_a_t[i], (rot_b[0][j], rot_b[1][j], rot_b[2][j]))
-                      for j in range(3)) for i in range(3))
-    t = _apply(rot_a_t, [pb[k] - pa[k] for k in range(3)])
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = rot_a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = rot_b
+    # R = R_A^T R_B and t = R_A^T (p_B - p_A), each sum in the order of the batch path.
+    rot = ((a00 * b00 + a10 * b10 + a20 * b20, a00 * b01 + a10 * b11 + a20 * b21,
+            a00 * b02 + a10 * b12 + a20 * b22),
+           (a01 * b00 + a11 * b10 + a21 * b20, a01 * b01 + a11 * b11 + a21 * b21,
+            a01 * b02 + a11 * b12 + a21 * b22),
+           (a02 * b00 + a12 * b10 + a22 * b20, a02 * b01 + a12 * b11 + a22 * b21,
+            a02 * b02 + a12 * b12 + a22 * b22))
+    d0, d1, d2 = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
+    t = [a00 * d0 + a10 * d1 + a20 * d2, a01 * d0 + a11 * d1 + a21 * d2,
+         a02 * d0 + a12 * d1 + a22 * d2]
     scale = max(ha) + max(hb)
     over, axes = _overlaps(ha, hb, rot, t, scale)
     colliding, axis = _choose_axis(over, scale)
@@ -308,23 +334,29 @@ def _face_rows(ha, hb, rot, t, axis, scale):
 
 def _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, manifold,
             rot_a, pa, pb):
-    """Map one pair's A-frame answer to the world frame as a one-row `Contacts`."""
-    manifold_points = np.zeros((1, ct.MAX_MANIFOLD_POINTS, 3))
-    manifold_depths = np.zeros((1, ct.MAX_MANIFOLD_POINTS))
-    if manifold:
-        count = len(manifold)
-        manifold_points[0, :count] = [[pa[r] + _dot(rot_a[r], p) for r in range(3)]
-                                      for p, _ in manifold]
-        manifold_depths[0, :count] = [d for _, d in manifold]
+    """Map one pair's A-frame answer to the world frame as a one-row `Contacts`.
+
+    All floats go into one array and all small integers into another, whose views become the
+    fields: two allocations instead of a dozen (NumPy's per-call cost dominates at N = 1).
+    """
     if point is None:
         world_point = [0.5 * (pa[k] + pb[k]) for k in range(3)]
     else:
         world_point = [pa[r] + _dot(rot_a[r], point) for r in range(3)]
-    floats = np.array([_apply(rot_a, normal), world_point])
-    ints = np.array([[code, feature_a, feature_b, axis, len(manifold)]], np.int8)
+    floats = _apply(rot_a, normal) + world_point + [depth]
+    for p, d in manifold:
+        floats.extend([pa[r] + _dot(rot_a[r], p) for r in range(3)])
+    floats.extend(_PADDING[: 3 * (ct.MAX_MANIFOLD_POINTS - len(manifold))])
+    floats.extend([d for _, d in manifold])
+    floats.extend(_PADDING[: ct.MAX_MANIFOLD_POINTS - len(manifold)])
+    floats.append(1.0)
+    values = np.array(floats)
+    ints = np.array([code, feature_a, feature_b, axis, len(manifold)], np.int8)
+    m = 7 + 3 * ct.MAX_MANIFOLD_POINTS
     return ct.Contacts(
-        colliding=np.array([colliding]), normal=floats[0:1], depth=np.array([depth]),
-        point=floats[1:2], contact_type_code=ints[:, 0], feature_a=ints[:, 1],
-        feature_b=ints[:, 2], axis=ints[:, 3], manifold_points=manifold_points,
-        manifold_depths=manifold_depths, manifold_count=ints[:, 4],
-        confidence=np.ones(1), predictor=_EXACT_NAME.copy())
+        colliding=np.array([colliding]), normal=values[0:3].reshape(1, 3),
+        depth=values[6:7], point=values[3:6].reshape(1, 3), contact_type_code=ints[0:1],
+        feature_a=ints[1:2], feature_b=ints[2:3], axis=ints[3:4],
+        manifold_points=values[7:m].reshape(1, ct.MAX_MANIFOLD_POINTS, 3),
+        manifold_depths=values[m:m + ct.MAX_MANIFOLD_POINTS].reshape(1, -1),
+        manifold_count=ints[4:5], confidence=values[-1:], predictor=_EXACT_NAME.copy())
