@@ -58,7 +58,7 @@ test-fast: $(STAMP_DEV)
 	$(call run_pytest,-m "not slow")
 
 bench: $(STAMP_DEV)
-	$(VENV)/bin/impactnet bench exact
+	$(VENV)/bin/impactnet bench
 
 lint: $(STAMP_DEV)
 	$(VENV)/bin/ruff check .

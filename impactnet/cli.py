@@ -7,15 +7,15 @@ does so only lazily, inside the subcommand that needs them: `impactnet contact` 
 runtime-only install, and `--help` must be instant. Nothing heavy (not even numpy) is imported at
 module level.
 
-Implemented now: `contact` (one exact box-box contact, printed as JSON) and `bench exact`. The
-other subcommands say which issue brings them and exit with status 2.
+Implemented: `serve`, `datagen`, `bench`, `reproduce-paper` (delegated to the modules named
+in `_DELEGATED`) and `contact` (one exact box-box contact, printed as JSON). The other
+subcommands say which issue brings them and exit with status 2.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
-import os
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -27,7 +27,6 @@ _PENDING = {
     "train": "issue 4, 'The learned predictors' (retraining jobs: issue 6)",
     "sweep": "issue 6, 'Retraining jobs and sweeps'",
     "evaluate": "issue 4, 'The learned predictors'",
-    "bench": "issue 7, 'The speed-accuracy trade, measured: impactnet bench'",
 }
 
 # Default pair of `impactnet contact`: the paper's cubes (edge 2 m); B rests on A's top face,
@@ -119,34 +118,6 @@ def contact_row_to_json(contacts, i: int) -> dict:
     return out
 
 
-# ----------------------------------------------------------------------------- bench
-
-
-_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-def pin_single_thread() -> bool:
-    """Ask BLAS / OpenMP for one thread. Returns False if numpy was already imported.
-
-    The benchmark measures one core. OpenBLAS, MKL and OpenMP read these variables once, when
-    their library is loaded, which happens when numpy is first imported; setting them afterwards
-    does nothing. So the bench path sets them before anything imports numpy.
-    """
-    for name in _THREAD_VARIABLES:
-        os.environ[name] = "1"
-    return "numpy" not in sys.modules
-
-
-def _cmd_bench_exact(args: argparse.Namespace) -> int:
-    # Must come first on this path: numpy is imported by training.bench_exact below.
-    if not pin_single_thread():
-        print("impactnet bench: warning: numpy was imported before the thread count was "
-              "pinned; BLAS may use several threads.", file=sys.stderr)
-    from training.bench_exact import run
-
-    return run(quick=args.quick, json_path=args.json, seed=args.seed)
-
-
 # ----------------------------------------------------------------------------- delegated
 
 # Subcommands whose arguments and work live in another module, as `add_arguments(parser)` and
@@ -157,6 +128,9 @@ _DELEGATED = {
                              "scene on 127.0.0.1:8000)"),
     "datagen": ("training.datagen_cli",
                 "generate labelled first-contact datasets for the pairs of a scene"),
+    "bench": ("training.bench_cli",
+              "speed and accuracy of every method on the same poses ('bench exact': the exact "
+              "solver against python-fcl)"),
     "reproduce-paper": ("training.reproduce_paper_cli",
                         "reproduce the paper's Tables 1 and 2 and Figures 5 and 6"),
 }
@@ -195,21 +169,6 @@ def build_parser() -> argparse.ArgumentParser:
         p.set_defaults(handler=_not_implemented(name))
 
     _add_delegated(sub)
-
-    bench = sub.add_parser("bench", help="benchmarks (implemented: 'bench exact')",
-                           description="Benchmarks. Implemented: 'exact'.")
-    bench.set_defaults(handler=_not_implemented("bench"))
-    bench_sub = bench.add_subparsers(dest="bench_command", metavar="BENCH")
-    exact = bench_sub.add_parser(
-        "exact", help="pairs/s of models.exact.box_box next to python-fcl, one thread",
-        description="Pairs/s and microseconds per pair of models.exact.box_box at N = 1, 1e3, "
-                    "1e5 on first-contact cube poses, next to python-fcl's Box-Box collide "
-                    "called in a Python loop over the same poses, on one thread.",
-    )
-    exact.add_argument("--quick", action="store_true", help="fewer repeats (a smoke run)")
-    exact.add_argument("--json", metavar="PATH", help="also write the results as JSON")
-    exact.add_argument("--seed", type=int, default=0, help="pose generator seed (default 0)")
-    exact.set_defaults(handler=_cmd_bench_exact)
 
     contact = sub.add_parser(
         "contact",

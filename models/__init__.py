@@ -1,5 +1,18 @@
 """Geometry, the exact box-box solver, NumPy inference of the learned predictors, scenes, bundles.
 
 Imports neither `training` nor `service`, nor torch, nor fastapi (see DESIGN.md). Submodules are
-imported explicitly (``from models.exact import box_box``) so that importing this package is cheap.
+imported explicitly (``from models.exact import box_box``) so that importing this package is cheap;
+:func:`load_predictor` (:mod:`models.predictors`) is the one name exported here, imported on
+first use.
 """
+from __future__ import annotations
+
+__all__ = ["load_predictor"]
+
+
+def load_predictor(name: str = "auto", bundle=None):
+    """The predictor ``name`` ("exact", "single", "committee", "auto"); see
+    :func:`models.predictors.load_predictor`."""
+    from models.predictors import load_predictor as load
+
+    return load(name, bundle)

@@ -21,7 +21,7 @@ Poses: first contacts of the paper's cube pair (edge 2 m) from
   extrapolated: the table says "not measured".
 
 Speed-ups are ratios of medians measured in this same run. BLAS / OpenMP are pinned to one
-thread (set before numpy is imported; see `pin_single_thread` in impactnet/cli.py) and the
+thread (set before numpy is imported; see `pin_single_thread` in training/bench/timing.py) and the
 garbage collector is paused while timing.
 """
 from __future__ import annotations
@@ -35,16 +35,14 @@ for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import datetime  # noqa: E402
-import gc  # noqa: E402
 import json  # noqa: E402
-import platform  # noqa: E402
-import statistics  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from dataclasses import asdict, dataclass, field  # noqa: E402
-from importlib import metadata  # noqa: E402
 
 import numpy as np  # noqa: E402
+
+from training.bench.timing import machine_info, median_per_call, median_repeated  # noqa: E402
 
 CUBE = (2.0, 2.0, 2.0)  # the paper's cube pair, edge 2 m
 GOAL_PAIRS_PER_S_1E5 = 1e6  # issue 2: >= 1 million pairs/s at N = 1e5 with the full manifold
@@ -87,79 +85,11 @@ class Row:
         self.us_per_pair = 1e6 * self.seconds / self.n
 
 
-# ----------------------------------------------------------------------------- machine
+# ----------------------------------------------------------------------------- machine, timing
 
-
-def machine_info() -> dict:
-    """CPU model, core count and the versions that matter for the figures."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-
-    def version(dist: str) -> str | None:
-        try:
-            return metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            return None
-
-    return {
-        "cpu": cpu,
-        "cores": os.cpu_count(),
-        "cores_usable": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
-        "python": platform.python_version(),
-        "platform": platform.platform(),
-        "numpy": np.__version__,
-        "python-fcl": version("python-fcl"),
-        "impactnet": version("impactnet"),
-        "threads": {name: os.environ.get(name) for name in
-                    ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")},
-    }
-
-
-# ----------------------------------------------------------------------------- timing
-
-
-def _median_per_call(fn, args_list, warmup: int) -> tuple[float, int]:
-    """Median seconds of ``fn(*args)`` over ``args_list``, not counting the first ``warmup``."""
-    clock = time.perf_counter
-    times = []
-    gc_was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for i, args in enumerate(args_list):
-            t0 = clock()
-            fn(*args)
-            t1 = clock()
-            if i >= warmup:
-                times.append(t1 - t0)
-    finally:
-        if gc_was_enabled:
-            gc.enable()
-    return statistics.median(times), len(times)
-
-
-def _median_repeated(fn, repeats: int) -> float:
-    """Median seconds of ``fn()`` over ``repeats`` calls after one warm-up call."""
-    fn()
-    clock = time.perf_counter
-    times = []
-    gc_was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for _ in range(repeats):
-            t0 = clock()
-            fn()
-            times.append(clock() - t0)
-    finally:
-        if gc_was_enabled:
-            gc.enable()
-    return statistics.median(times)
+# Shared with `impactnet bench` (training/bench/timing.py); the old private names stay.
+_median_per_call = median_per_call
+_median_repeated = median_repeated
 
 
 def _slice(poses: dict, n: int) -> tuple[np.ndarray, ...]:

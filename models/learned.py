@@ -1,0 +1,322 @@
+"""The learned predictors ``single``, ``committee`` and ``auto`` (docs/learned_predictors.md).
+
+Each is a callable with :func:`models.exact.box_box`'s signature returning `Contacts` with
+``confidence`` and ``predictor`` filled; :meth:`LearnedPredictor.predict` also returns the
+committee's spread. Stages of a call:
+
+1. Inputs are validated as the exact solver validates them (:mod:`models.pose_columns`); a
+   single pair takes the plain-Python path (:mod:`models.learned_one`).
+2. Dispatch (:mod:`models.pair_dispatch`): rows are grouped by the pair model their sizes
+   match (a loop over groups, not rows); rows of a swapped pair are solved swapped and
+   flipped back. Unsupported rows raise :class:`UnsupportedPairError` in ``single`` and
+   ``committee`` (before any work) and go to the exact solver in ``auto``.
+3. Per group, in blocks of ``ROW_BLOCK`` rows: canonical features, then ``single``'s MLP, or
+   the classifier. ``committee`` then sorts the group's rows by region and runs each
+   region's committee once on all its rows (a loop over regions), and a second block pass
+   maps the canonical answers to the world.
+4. ``auto``: rows whose confidence, spread or depth fail the pair's thresholds, and the
+   unsupported rows, are solved by :func:`models.exact.box_box` in one call.
+
+Fields of a learned answer: ``single`` predicts no contact type, so its rows have
+``colliding`` True, ``contact_type_code`` 0 and features / axis -1 (not predicted), and
+confidence 1 inside the trained depth domain, 0 outside it (it has no uncertainty
+estimate). ``committee`` fills type, features and axis from the region (mapped back through
+S and T); confidence is the classifier's probability, 0 where the predicted depth leaves the
+domain; a predicted "none" is a separated row (point: the centres' midpoint, normal: the
+centre line, depth 0). The manifold of a learned contact is its point (count 1). The
+manifold arrays are (n, 8, 3) and (n, 8) views of slot-major (8, n, ...) arrays, so that
+only the slot in use is written.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from models import contacts as ct
+from models import pose_columns as pc
+from models.bundles import Bundle
+from models.canonical import FALLBACK_NORMAL, FLIP_FEATURES, N_POSE_FEATURES
+from models.exact import box_box
+from models.learned_one import Prediction, one_pair, predict_one
+from models.pair_dispatch import UNSUPPORTED, PairTable, UnsupportedPairError, groups, unswap
+from models.pair_runtime import PairRuntime, decide, member_stats
+
+#: Rows per classifier call: the logits (rows x R float32, 1 MB at R = 128) stay in the L2
+#: cache for the three passes of the decision (argmax, exp, sum).
+CLASSIFY_CHUNK = 2048
+_FIELDS = ("colliding", "normal", "depth", "point", "contact_type_code", "feature_a",
+           "feature_b", "axis", "manifold_count", "confidence", "predictor", "normal_spread",
+           "point_spread", "unsure")
+
+
+class Output:
+    """The arrays of n answers, filled group by group (see :func:`LearnedPredictor.predict`)."""
+
+    def __init__(self, n: int):
+        self.n = n
+        self.colliding, self.unsure = np.ones(n, bool), np.zeros(n, bool)
+        self.normal, self.point = np.empty((n, 3)), np.empty((n, 3))
+        self.depth, self.confidence = np.empty(n), np.empty(n)
+        self.contact_type_code, self.axis = np.zeros(n, np.int8), np.full(n, -1, np.int8)
+        self.feature_a, self.feature_b = np.full(n, -1, np.int8), np.full(n, -1, np.int8)
+        self.manifold_count = np.ones(n, np.int8)
+        self.predictor = np.empty(n, "<U9")
+        self.normal_spread, self.point_spread = np.zeros(n, np.float32), np.zeros(n, np.float32)
+        self.slots = np.zeros((ct.MAX_MANIFOLD_POINTS, n, 3))  # manifold, slot-major
+        self.slot_depths = np.zeros((ct.MAX_MANIFOLD_POINTS, n))
+
+    def put(self, rows: np.ndarray, part: Output) -> None:
+        """Copy the answers of ``part`` into ``rows``."""
+        for name in _FIELDS:
+            getattr(self, name)[rows] = getattr(part, name)
+        self.slots[:, rows] = part.slots
+        self.slot_depths[:, rows] = part.slot_depths
+
+    def put_exact(self, rows: np.ndarray, exact: ct.Contacts) -> None:
+        """Copy exact-solver answers into ``rows``."""
+        for name in _FIELDS[:-3]:
+            getattr(self, name)[rows] = getattr(exact, name)
+        self.normal_spread[rows] = self.point_spread[rows] = 0.0
+        self.slots[:, rows] = exact.manifold_points.transpose(1, 0, 2)
+        self.slot_depths[:, rows] = exact.manifold_depths.T
+
+    def finish_learned(self, name: str) -> None:
+        """Manifold slot 0 (point, depth) of the colliding rows, and the predictor name."""
+        np.multiply(self.point, self.colliding[:, None], out=self.slots[0])
+        self.slot_depths[0] = self.depth
+        self.manifold_count[:] = self.colliding
+        self.predictor[:] = name
+
+    def prediction(self) -> Prediction:
+        contacts = ct.Contacts(
+            self.colliding, self.normal, self.depth, self.point, self.contact_type_code,
+            self.feature_a, self.feature_b, self.axis, self.slots.transpose(1, 0, 2),
+            self.slot_depths.T, self.manifold_count, self.confidence, self.predictor)
+        return Prediction(contacts, self.normal_spread, self.point_spread)
+
+
+class LearnedPredictor:
+    """Base of the learned predictors: validation, dispatch, assembly (module docstring)."""
+
+    mode = ""
+
+    def __init__(self, bundle: Bundle):
+        self.bundle = bundle
+        self.pairs = [PairRuntime(models, bundle) for models in bundle.pairs.values()]
+        self.table = PairTable([(p.size_a, p.size_b) for p in self.pairs])
+        self.version = bundle.version
+
+    def __call__(self, size_a, position_a, quaternion_a, size_b, position_b,
+                 quaternion_b) -> ct.Contacts:
+        values = (size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
+        one = one_pair(values)
+        if one is not None:
+            return predict_one(self, one, spread=False)[0]
+        return self._predict(values, spread=False).contacts
+
+    def __repr__(self) -> str:
+        return f"<{self.mode} predictor, bundle {self.version}>"
+
+    def runtime(self, code: int) -> PairRuntime | None:
+        """The pair of a dispatch code if it has this mode's models, else None."""
+        if code == UNSUPPORTED:
+            return None
+        pair = self.pairs[code // 2]
+        return pair if pair.supports(self.mode) else None
+
+    def predict(self, size_a, position_a, quaternion_a, size_b, position_b,
+                quaternion_b) -> Prediction:
+        """Contacts of N pairs with the committee's spread; arguments as ``box_box``."""
+        values = (size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
+        one = one_pair(values)
+        if one is not None:
+            contacts, normal_spread, point_spread = predict_one(self, one)
+            return Prediction(contacts, np.array([normal_spread]), np.array([point_spread]))
+        return self._predict(values, spread=True)
+
+    def _predict(self, values, spread: bool) -> Prediction:
+        """The batch path (module docstring, stages 1-4); the committee's spread is computed
+        when ``spread`` or in auto."""
+        inputs = pc.checked_inputs(*values)
+        out = Output(inputs.n)
+        if inputs.n == 0:
+            return out.prediction()
+        parts = groups(self.table.match(inputs.size_a, inputs.size_b), inputs.n)
+        missing = [rows for code, rows in parts if self.runtime(code) is None]
+        if missing and self.mode != "auto":
+            rows = np.arange(inputs.n) if missing[0] is None else np.concatenate(missing)
+            raise UnsupportedPairError(np.sort(rows), [p.key for p in self.pairs if
+                                                       p.supports(self.mode)], self.mode)
+        for code, rows in parts:
+            pair = self.runtime(code)
+            if pair is None:
+                out.unsure[slice(None) if rows is None else rows] = True
+                continue
+            group = inputs if rows is None else inputs.take(rows)
+            part = out if rows is None else Output(len(rows))
+            self.solve(pair, group.swapped() if code % 2 else group, part, spread)
+            if code % 2:
+                unswap_output(part)
+            if rows is not None:
+                out.put(rows, part)
+        if self.mode == "auto":
+            _exact_fallback(out, inputs)
+        return out.prediction()
+
+    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool) -> None:
+        """Answer one pair model's rows into ``out`` (see the subclasses)."""
+        raise NotImplementedError
+
+
+def unswap_output(out: Output) -> None:
+    """Flip a swapped group's answers back to the request's order (pair_dispatch.unswap)."""
+    fields = {name: getattr(out, name) for name in ("normal", "feature_a", "feature_b",
+                                                     "contact_type_code", "axis")}
+    unswap(fields)
+    for name, value in fields.items():
+        setattr(out, name, value)
+
+
+def _exact_fallback(out: Output, inputs: pc.Inputs) -> None:
+    """``auto``: the exact solver answers the unsure rows, in one vectorised call."""
+    rows = np.flatnonzero(out.unsure)
+    if rows.size:
+        out.put_exact(rows, box_box(*(a[rows] for a in inputs.full())))
+
+
+class SinglePredictor(LearnedPredictor):
+    """The paper's design, better posed: one MLP per pair from pose-v1 to contact-v1."""
+
+    mode = "single"
+
+    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool) -> None:
+        n = inputs.n
+        features = _augmented_features(min(n, pc.ROW_BLOCK))
+        outputs = np.empty((min(n, pc.ROW_BLOCK), 7), np.float32)
+        for start in range(0, n, pc.ROW_BLOCK):
+            stop = min(n, start + pc.ROW_BLOCK)
+            x, y = features[:stop - start], outputs[:stop - start]
+            frame = pc.canonical_block(inputs, start, stop, pair.inv_scale,
+                                       x[:, :N_POSE_FEATURES])
+            pair.single.forward_augmented(x, out=y)
+            columns = np.ascontiguousarray(y.T)
+            pc.world_block(columns, frame, inputs, start, stop, pair.scale,
+                           out.point[start:stop], out.normal[start:stop])
+            _depth(pair, columns[6], out.depth[start:stop])
+            np.copyto(out.confidence[start:stop], pair.in_domain(columns[6]))
+        out.finish_learned(self.mode)
+
+
+def _augmented_features(rows: int) -> np.ndarray:
+    """A (rows, 13) float32 buffer for pose-v1 features and the MLPs' column of ones."""
+    features = np.empty((rows, N_POSE_FEATURES + 1), np.float32)
+    features[:, N_POSE_FEATURES] = 1.0
+    return features
+
+
+def _depth(pair: PairRuntime, fraction: np.ndarray, depth: np.ndarray) -> None:
+    """Depths (metres, clipped at 0) of predicted depth fractions of e, into ``depth``."""
+    np.multiply(fraction, pair.edge, out=depth)
+    np.maximum(depth, 0.0, out=depth)
+
+
+#: Canonical outputs of a predicted "none" row before :func:`_separated` overwrites them.
+_NONE_OUTPUT = np.array([0, 0, 0, *FALLBACK_NORMAL, 0], np.float32)
+
+
+class CommitteePredictor(LearnedPredictor):
+    """Classifier -> region -> the region's committee, averaged; confidence and spread."""
+
+    mode = "committee"
+
+    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool) -> None:
+        n = inputs.n
+        features = _augmented_features(n)
+        region = np.empty(n, np.int16)
+        frames = []
+        for start in range(0, n, pc.ROW_BLOCK):
+            stop = min(n, start + pc.ROW_BLOCK)
+            frames.append(pc.canonical_block(inputs, start, stop, pair.inv_scale,
+                                             features[start:stop, :N_POSE_FEATURES]))
+            for sub in range(start, stop, CLASSIFY_CHUNK):
+                end = min(stop, sub + CLASSIFY_CHUNK)
+                region[sub:end], out.confidence[sub:end] = decide(
+                    pair.classifier.forward_augmented(features[sub:end]))
+        outputs = self._experts(pair, features, region, out, spread or self.mode == "auto")
+        for start, frame in zip(range(0, n, pc.ROW_BLOCK), frames):
+            stop = min(n, start + pc.ROW_BLOCK)
+            pc.world_block(outputs[:, start:stop], frame, inputs, start, stop, pair.scale,
+                           out.point[start:stop], out.normal[start:stop])
+        _depth(pair, outputs[6], out.depth)
+        self._labels(pair, region, frames, out)
+        outside = out.colliding & ~pair.in_domain(outputs[6])
+        out.confidence[outside] = 0.0
+        _separated(out, inputs, np.flatnonzero(region == 0))
+        if self.mode == "auto":
+            out.unsure |= pair.unsure(out.confidence, out.normal_spread, out.point_spread,
+                                      outputs[6], out.colliding)
+        out.finish_learned("committee")
+
+    @staticmethod
+    def _labels(pair: PairRuntime, region, frames, out: Output) -> None:
+        """Colliding flag, type, axis and features of the regions, mapped back by S, T."""
+        flip_a = np.concatenate([f.flip_a for f in frames])
+        flip_b = np.concatenate([f.flip_b for f in frames])
+        np.not_equal(region, 0, out=out.colliding)
+        out.contact_type_code[:] = pair.region_code[region]
+        out.axis[:] = pair.region_axis[region]
+        out.feature_a[:] = FLIP_FEATURES[flip_a, pair.region_fa[region]]
+        out.feature_b[:] = FLIP_FEATURES[flip_b, pair.region_fb[region]]
+
+    @staticmethod
+    def _experts(pair: PairRuntime, features, region, out: Output, spread: bool) -> np.ndarray:
+        """Committee means (7, n) float32, as columns; spreads into ``out``.
+
+        Rows are sorted by region rank (regions with committees of equal size K adjacent);
+        each region's committee runs once on its rows, each run of equal K gets its mean and
+        spread in one pass.
+        """
+        n = len(region)
+        key = pair.rank[region]
+        order = np.argsort(key, kind="stable")
+        bounds = np.concatenate([[0], np.cumsum(np.bincount(key, minlength=len(pair.rank)))])
+        ordered = features[order]
+        outputs = np.empty((7, n), np.float32)  # in sorted order first
+        normal_spread, point_spread = np.zeros(n, np.float32), np.zeros(n, np.float32)
+        outputs[:, :bounds[1]] = _NONE_OUTPUT[:, None]
+        for k, first, end in pair.k_groups:
+            g0, g1 = bounds[first], bounds[end]
+            if g1 == g0:
+                continue
+            members = np.empty((k, 7, g1 - g0), np.float32)
+            for rank in range(first, end):
+                b0, b1 = bounds[rank], bounds[rank + 1]
+                if b1 > b0:
+                    pair.experts[pair.by_rank[rank]].forward_columns(
+                        ordered[b0:b1], out=members[:, :, b0 - g0:b1 - g0])
+            member_stats(members, pair.scale, spread, out=(
+                outputs[:, g0:g1], normal_spread[g0:g1], point_spread[g0:g1]))
+        inverse = np.empty(n, np.intp)
+        inverse[order] = np.arange(n)
+        np.take(normal_spread, inverse, out=out.normal_spread)
+        np.take(point_spread, inverse, out=out.point_spread)
+        return np.take(outputs, inverse, axis=1)
+
+
+def _separated(out: Output, inputs: pc.Inputs, rows: np.ndarray) -> None:
+    """Predicted "none": centres' midpoint, normal along the centre line, depth 0."""
+    if not rows.size:
+        return
+    pa, pb = inputs.position_a, inputs.position_b
+    pa, pb = (pa if len(pa) == 1 else pa[rows]), (pb if len(pb) == 1 else pb[rows])
+    line = pb - pa
+    length = np.sqrt(np.einsum("ij,ij->i", line, line))[:, None]
+    out.normal[rows] = np.where(length > 0, line / np.where(length > 0, length, 1.0),
+                                [0.0, 0.0, 1.0])
+    out.point[rows] = 0.5 * (pa + pb)
+    out.depth[rows] = 0.0
+
+
+class AutoPredictor(CommitteePredictor):
+    """The committee, with the exact solver for the unsure and the unsupported rows."""
+
+    mode = "auto"

@@ -1,0 +1,215 @@
+"""The learned predictors for one pair, in plain Python floats (the N = 1 fast path).
+
+NumPy costs about a microsecond per call whatever the array size, and the batch path
+(:mod:`models.learned`) makes a few hundred calls, so one pair takes this path: the same
+stages (validation, dispatch, canonical frame, networks, mapping back, ``auto``'s fallback)
+with the geometry in Python floats and only the vector-matrix products in NumPy
+(:meth:`models.mlp.MLP.forward_one`). The canonical frame follows :mod:`models.canonical`
+(``R = R_A^T R_B`` from the two matrices, signs with ties +1), so the answer equals the batch
+path's row up to float32 rounding (tested).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from models import contacts as ct
+from models.canonical import FALLBACK_NORMAL, FLIP_FEATURES, NORMAL_NORM_MIN
+from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
+from models.exact_scalar import box_box_one, single_pair
+from models.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UnsupportedPairError
+from models.rotations import QUATERNION_MIN_NORM
+
+_PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
+_DEG = 180.0 / math.pi
+_FLIP = FLIP_FEATURES.tolist()  # _FLIP[flip][feature], feature -1 -> last entry (-1)
+_MIRROR_TYPE, _MIRROR_AXIS = MIRROR_TYPE.tolist(), MIRROR_AXIS.tolist()
+_FALLBACK = FALLBACK_NORMAL.tolist()
+_WIDTHS = (3, 3, 4, 3, 3, 4)
+
+
+class Prediction(NamedTuple):
+    """A predictor's answer and the committee's spread (0 where no committee answered)."""
+
+    contacts: ct.Contacts
+    normal_spread: np.ndarray  # (n,) degrees, largest angle between member normals
+    point_spread: np.ndarray  # (n,) metres, largest distance between member points
+
+
+def one_pair(values):
+    """The six inputs as validated float lists (quaternions normalised) if they are one
+    valid pair, else None (then the batch path takes them, and raises on invalid input).
+
+    Gives the answer of :func:`models.exact_scalar.single_pair`, which it calls for anything
+    but float64 vectors and float lists; a batch is recognised by its size first, before
+    anything is converted.
+    """
+    rows = []
+    for value, width in zip(values, _WIDTHS):
+        if type(value) is np.ndarray:
+            if value.size != width:
+                return None
+            if value.dtype != np.float64 or value.ndim != 1:
+                return single_pair(*values)
+            rows.append(value.tolist())
+        elif type(value) is list and len(value) == width:
+            rows.append(value)
+        elif isinstance(value, list | tuple) and len(value) not in (1, width):
+            return None
+        else:
+            return single_pair(*values)
+    size_a, pa, qa, size_b, pb, qb = rows
+    if not all(type(v) is float for row in rows for v in row):
+        return single_pair(*values)
+    if not math.isfinite(sum(size_a) + sum(pa) + sum(qa) + sum(size_b) + sum(pb) + sum(qb)):
+        return single_pair(*values)  # a non-finite value, or a sum that overflows
+    for size in (size_a, size_b):
+        if not (min(size) >= SIZE_MIN_M and max(size) <= SIZE_MAX_M):
+            return None
+    for p in (pa, pb):
+        if not (abs(p[0]) <= POSITION_MAX_M and abs(p[1]) <= POSITION_MAX_M
+                and abs(p[2]) <= POSITION_MAX_M):
+            return None
+    units = []
+    for w, x, y, z in (qa, qb):
+        norm = math.sqrt(w * w + x * x + y * y + z * z)  # summed as single_pair sums
+        if not norm >= QUATERNION_MIN_NORM:
+            return None
+        units.append([w / norm, x / norm, y / norm, z / norm])
+    return [size_a, pa, units[0], size_b, pb, units[1]]
+
+
+def _canonical(values, inv_scale):
+    """Features (12,) float32, R_A S (9 floats, row-major) and the flip indices of S, T."""
+    _, pa, (aw, ax, ay, az), _, pb, (bw, bx, by, bz) = values
+    a = (1 - 2 * (ay * ay + az * az), 2 * (ax * ay - aw * az), 2 * (ax * az + aw * ay),
+         2 * (ax * ay + aw * az), 1 - 2 * (ax * ax + az * az), 2 * (ay * az - aw * ax),
+         2 * (ax * az - aw * ay), 2 * (ay * az + aw * ax), 1 - 2 * (ax * ax + ay * ay))
+    b = (1 - 2 * (by * by + bz * bz), 2 * (bx * by - bw * bz), 2 * (bx * bz + bw * by),
+         2 * (bx * by + bw * bz), 1 - 2 * (bx * bx + bz * bz), 2 * (by * bz - bw * bx),
+         2 * (bx * bz - bw * by), 2 * (by * bz + bw * bx), 1 - 2 * (bx * bx + by * by))
+    d0, d1, d2 = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
+    t = (a[0] * d0 + a[3] * d1 + a[6] * d2, a[1] * d0 + a[4] * d1 + a[7] * d2,
+         a[2] * d0 + a[5] * d1 + a[8] * d2)
+    rot = [a[i] * b[j] + a[3 + i] * b[3 + j] + a[6 + i] * b[6 + j]
+           for i in (0, 1, 2) for j in (0, 1, 2)]
+    s = [-1.0 if v < 0.0 else 1.0 for v in t]
+    sign_b = [-1.0 if rot[j] * t[0] + rot[3 + j] * t[1] + rot[6 + j] * t[2] > 0.0 else 1.0
+              for j in (0, 1, 2)]  # sign of u = -R^T t, ties +1
+    features = [abs(t[0]) * inv_scale, abs(t[1]) * inv_scale, abs(t[2]) * inv_scale]
+    features += [rot[3 * i + j] * s[i] * sign_b[j] for i in (0, 1, 2) for j in (0, 1, 2)]
+    to_world = [a[3 * i + j] * s[j] for i in (0, 1, 2) for j in (0, 1, 2)]
+    flip_a = 4 * (s[0] < 0) + 2 * (s[1] < 0) + (s[2] < 0)
+    flip_b = 4 * (sign_b[0] < 0) + 2 * (sign_b[1] < 0) + (sign_b[2] < 0)
+    return np.array(features, np.float32), to_world, flip_a, flip_b
+
+
+def _to_world(pair, y, m, pa):
+    """World point, unit normal and depth (clipped at 0) of one contact-v1 output ``y``
+    (7 floats); ``m`` = R_A S (9 floats), ``pa`` = A's position."""
+    n0, n1, n2 = y[3], y[4], y[5]
+    norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    n0, n1, n2 = _FALLBACK if norm < NORMAL_NORM_MIN else (n0 / norm, n1 / norm, n2 / norm)
+    p0, p1, p2 = y[0] * pair.scale, y[1] * pair.scale, y[2] * pair.scale
+    normal = [m[0] * n0 + m[1] * n1 + m[2] * n2, m[3] * n0 + m[4] * n1 + m[5] * n2,
+              m[6] * n0 + m[7] * n1 + m[8] * n2]
+    point = [pa[0] + m[0] * p0 + m[1] * p1 + m[2] * p2, pa[1] + m[3] * p0 + m[4] * p1
+             + m[5] * p2, pa[2] + m[6] * p0 + m[7] * p1 + m[8] * p2]
+    return point, normal, max(y[6] * pair.edge, 0.0)
+
+
+def _spread(members, scale):
+    """Largest angle (deg) between member normals and distance (m) between member points."""
+    units = []
+    for y in members:
+        norm = max(math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5]), NORMAL_NORM_MIN)
+        units.append((y[3] / norm, y[4] / norm, y[5] / norm))
+    chord = dist = 0.0
+    for i in range(len(members)):
+        for j in range(i + 1, len(members)):
+            chord = max(chord, math.dist(units[i], units[j]))
+            dist = max(dist, math.dist(members[i][:3], members[j][:3]))
+    return 2.0 * math.asin(min(chord * 0.5, 1.0)) * _DEG, dist * scale
+
+
+def predict_one(predictor, values, spread: bool = True):
+    """The answer of ``predictor`` (a LearnedPredictor) for one validated pair (the lists
+    of :func:`one_pair`): a one-row `Contacts`, the normal spread (deg) and the point spread
+    (m) of the committee (0 where none answered, or when not ``spread`` and not auto)."""
+    code = predictor.table.match_one(values[0], values[3])
+    pair = predictor.runtime(code)
+    if pair is None:
+        if predictor.mode != "auto":
+            raise UnsupportedPairError([0], [p.key for p in predictor.pairs
+                                             if p.supports(predictor.mode)], predictor.mode)
+        return box_box_one(*values), 0.0, 0.0
+    swapped = code % 2 == 1
+    solved = values[3:] + values[:3] if swapped else values
+    x, to_world, flip_a, flip_b = _canonical(solved, pair.inv_scale)
+    if predictor.mode == "single":
+        y = pair.single.forward_one(x).tolist()
+        point, normal, depth = _to_world(pair, y, to_world, solved[1])
+        inside = pair.depth_lo <= y[6] <= pair.depth_hi
+        row = [True, normal, depth, point, 0, -1, -1, -1, 1.0 if inside else 0.0, "single"]
+        spread = (0.0, 0.0)
+    else:
+        auto = predictor.mode == "auto"
+        row, spread = _committee_one(pair, x, to_world, flip_a, flip_b, solved, auto,
+                                     spread or auto)
+        if row is None:  # auto: unsure
+            return box_box_one(*values), 0.0, 0.0
+    if swapped:
+        row[1] = [-row[1][0], -row[1][1], -row[1][2]]
+        row[4], row[5], row[6] = _MIRROR_TYPE[row[4]], row[6], row[5]
+        row[7] = _MIRROR_AXIS[row[7]]
+    return _contacts(*row), spread[0], spread[1]
+
+
+def _committee_one(pair, x, to_world, flip_a, flip_b, solved, auto: bool, spread: bool):
+    """(row fields, spread) of the committee for one canonical input ``x`` (12,); row None
+    when ``auto`` hands the pair to the exact solver; the spread only if ``spread``."""
+    logits = pair.classifier.forward_one(x)
+    region = int(logits.argmax())
+    logits -= logits[region]
+    confidence = 1.0 / float(np.dot(np.exp(logits, out=logits), pair.ones_regions))
+    if region == 0:
+        if auto and confidence < pair.auto.confidence_min:
+            return None, None
+        pa, pb = solved[1], solved[4]
+        line = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]]
+        length = math.sqrt(line[0] * line[0] + line[1] * line[1] + line[2] * line[2])
+        normal = [v / length for v in line] if length > 0 else [0.0, 0.0, 1.0]
+        point = [0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])]
+        return [False, normal, 0.0, point, 0, -1, -1, -1, confidence, "committee"], (0.0, 0.0)
+    members = pair.experts[region].forward_one(x).tolist()
+    k = len(members)
+    y = [sum(column) / k for column in zip(*members)]
+    spread = _spread(members, pair.scale) if spread and k > 1 else (0.0, 0.0)
+    inside = pair.depth_lo <= y[6] <= pair.depth_hi
+    if auto and (not inside or confidence < pair.auto.confidence_min
+                 or spread[0] > pair.spread_normal_max or spread[1] > pair.spread_point_max):
+        return None, None
+    point, normal, depth = _to_world(pair, y, to_world, solved[1])
+    code, fa, fb, axis = pair.region_rows[region]
+    return [True, normal, depth, point, code, _FLIP[flip_a][fa], _FLIP[flip_b][fb], axis,
+            confidence if inside else 0.0, "committee"], spread
+
+
+def _contacts(colliding, normal, depth, point, code, feature_a, feature_b, axis, confidence,
+              name) -> ct.Contacts:
+    """A one-row `Contacts` from two allocations (floats and small ints), as the exact
+    solver's scalar path builds it; the manifold is the point itself (count 1) or empty."""
+    floats = normal + point + [depth] + (point if colliding else [0.0] * 3) + _PADDING[3:]
+    floats += [depth] + _PADDING[:ct.MAX_MANIFOLD_POINTS - 1] + [confidence]
+    values = np.array(floats)
+    ints = np.array([code, feature_a, feature_b, axis, 1 if colliding else 0], np.int8)
+    m = 7 + 3 * ct.MAX_MANIFOLD_POINTS
+    return ct.Contacts(
+        colliding=np.array([colliding]), normal=values[0:3].reshape(1, 3),
+        depth=values[6:7], point=values[3:6].reshape(1, 3), contact_type_code=ints[0:1],
+        feature_a=ints[1:2], feature_b=ints[2:3], axis=ints[3:4],
+        manifold_points=values[7:m].reshape(1, ct.MAX_MANIFOLD_POINTS, 3),
+        manifold_depths=values[m:m + ct.MAX_MANIFOLD_POINTS].reshape(1, -1),
+        manifold_count=ints[4:5], confidence=values[-1:], predictor=np.array([name], "<U9"))

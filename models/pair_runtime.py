@@ -1,0 +1,188 @@
+"""One pair's models ready to run: everything a predictor needs, computed once at load time.
+
+:class:`PairRuntime` holds the pair's lengths (``L``, ``e``), its trained depth domain, its
+MLPs (the committees stacked for batched matmuls) and the region tables (type, canonical
+features and axis of each classifier class), plus the two small kernels of the committee:
+:func:`decide` (classifier logits -> region, confidence) and :func:`member_stats` (K member
+outputs -> mean, spread).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from models import box_features as bf
+from models import contacts as ct
+from models.bundles import AutoThresholds, Bundle, PairModels
+from models.canonical import parse_region_key
+from models.mlp import MLPStack
+
+#: Depth margin (fraction of the pair's shortest edge e) beyond the trained depth range under
+#: which a predicted depth still counts as in the domain, for pairs whose bundle entry has no
+#: ``auto`` block (which would calibrate it): 0.2 % of e, a fifth of the default scene's range.
+DEFAULT_DEPTH_MARGIN = 0.002
+#: Member normals shorter than this (dimensionless) count as the fallback direction in the
+#: spread (see models.canonical.NORMAL_NORM_MIN).
+_NORM_FLOOR = 1e-6
+
+
+def region_axis(code: int, feature_a: int, feature_b: int) -> int:
+    """Separating-axis id of a region (see models.contacts): A's face axis for the face
+    contacts of A (face-face included: the axis of A's face), 3 + B's face axis for
+    vertex-face / edge-face, ``6 + 3 i + j`` for edge-edge; -1 for none. Sign flips keep
+    axes, so canonical and original features give the same id."""
+    if code in (ct.FACE_VERTEX, ct.FACE_EDGE, ct.FACE_FACE):
+        return int(bf.FACE_AXIS[feature_a])
+    if code in (ct.VERTEX_FACE, ct.EDGE_FACE):
+        return 3 + int(bf.FACE_AXIS[feature_b])
+    if code == ct.EDGE_EDGE:
+        return 6 + 3 * int(bf.EDGE_AXIS[feature_a - bf.EDGE_BASE]) \
+            + int(bf.EDGE_AXIS[feature_b - bf.EDGE_BASE])
+    return -1
+
+
+class PairRuntime:
+    """A pair's models and constants (see the module docstring)."""
+
+    def __init__(self, models: PairModels, bundle: Bundle):
+        half_a, half_b = np.array(models.size_a) / 2, np.array(models.size_b) / 2
+        self.key = models.key
+        self.size_a, self.size_b = models.size_a, models.size_b
+        self.scale = float(half_a.max() + half_b.max())  # L, metres
+        self.inv_scale = 1.0 / self.scale
+        self.edge = float(2.0 * min(half_a.min(), half_b.min()))  # e, metres
+        self.auto: AutoThresholds | None = models.auto
+        margin = models.auto.depth_margin if models.auto else DEFAULT_DEPTH_MARGIN
+        self.depth_lo = models.depth_fraction[0] - margin  # fractions of e
+        self.depth_hi = models.depth_fraction[1] + margin
+        self.single = bundle.mlps[models.single] if models.single else None
+        self.classifier = bundle.mlps[models.classifier] if models.classifier else None
+        self.regions = models.regions
+        parsed = [parse_region_key(r) for r in models.regions]
+        self.region_code = np.array([p[0] for p in parsed], np.int8)
+        self.region_fa = np.array([p[1] for p in parsed], np.int8)
+        self.region_fb = np.array([p[2] for p in parsed], np.int8)
+        self.region_axis = np.array([region_axis(*p) for p in parsed], np.int8)
+        # (code, canonical feature_a, canonical feature_b, axis) per region, as Python ints
+        self.region_rows = [(c, a, b, region_axis(c, a, b)) for c, a, b in parsed]
+        self.ones_regions = np.ones(len(parsed), np.float32)  # sums logits by one dot
+        self.experts = [None] + [MLPStack([bundle.mlps[m] for m in models.experts[r]])
+                                 for r in models.regions[1:]]
+        self._committee_order()
+        if self.auto is not None:
+            self.spread_normal_max = self.auto.normal_spread_max_deg  # degrees
+            self.spread_point_max = self.auto.point_spread_max * self.edge  # metres
+
+    def _committee_order(self) -> None:
+        """Regions ranked so that regions with committees of equal size K are neighbours
+        ("none" first): ``rank`` (R,) int16 region -> rank, ``by_rank`` (R,) rank -> region,
+        ``k_groups``: (K, first rank, end rank) of each run of equal K."""
+        sizes = [0] + [stack.k for stack in self.experts[1:]]
+        self.by_rank = np.array(sorted(range(len(sizes)), key=lambda r: (r > 0, sizes[r], r)),
+                                np.int64)
+        self.rank = np.empty(len(sizes), np.int16)
+        self.rank[self.by_rank] = np.arange(len(sizes))
+        self.k_groups = []
+        for position, region in enumerate(self.by_rank[1:].tolist(), start=1):
+            if self.k_groups and self.k_groups[-1][0] == sizes[region]:
+                self.k_groups[-1][2] = position + 1
+            else:
+                self.k_groups.append([sizes[region], position, position + 1])
+
+    def supports(self, mode: str) -> bool:
+        """Whether this pair has the models of ``mode`` (auto needs its thresholds too)."""
+        if mode == "single":
+            return self.single is not None
+        if mode == "committee":
+            return self.classifier is not None
+        return self.classifier is not None and self.auto is not None
+
+    def in_domain(self, depth_fraction):
+        """Whether predicted depths (fractions of e) lie in the trained range +- margin."""
+        return (depth_fraction >= self.depth_lo) & (depth_fraction <= self.depth_hi)
+
+    def unsure(self, confidence, normal_spread, point_spread, depth_fraction, colliding):
+        """Rows ``auto`` hands to the exact solver (arrays of one group's rows)."""
+        a = self.auto
+        return ((confidence < a.confidence_min) | (normal_spread > self.spread_normal_max)
+                | (point_spread > self.spread_point_max)
+                | (colliding & ~self.in_domain(depth_fraction)))
+
+
+def decide(logits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Region (m,) intp and its softmax probability (m,) float32 of logits (m, R).
+
+    ``logits`` is overwritten. The softmax is shifted by the block's largest logit ``g``
+    (one scalar subtraction instead of a per-row one): ``p = exp(top - g) / sum exp(l - g)``;
+    rows whose top logit lies more than :data:`_SHIFT_MAX` below ``g`` (where exp would lose
+    precision) are computed with their own shift.
+    """
+    m = len(logits)
+    best = logits.argmax(axis=1)
+    top = logits[np.arange(m), best]
+    shift = top.max() if m else np.float32(0.0)
+    far = np.flatnonzero(top < shift - _SHIFT_MAX)
+    exact = _softmax_top(logits[far], top[far]) if far.size else None
+    np.subtract(logits, shift, out=logits)
+    np.exp(logits, out=logits)
+    with np.errstate(invalid="ignore", divide="ignore"):  # far rows: 0 / 0, replaced below
+        confidence = np.exp(top - shift) / (logits @ np.ones(logits.shape[1], np.float32))
+    if far.size:
+        confidence[far] = exact
+    return best, confidence
+
+
+#: Largest shift (natural-log units) of a row's top logit below the block's for which
+#: ``exp(top - g)`` stays a normal float32 with full precision (exp(-80) = 1.8e-35 > 1.2e-38).
+_SHIFT_MAX = 80.0
+
+
+def _softmax_top(logits: np.ndarray, top: np.ndarray) -> np.ndarray:
+    """Softmax probability of the top logit, rows shifted by their own top."""
+    return 1.0 / np.exp(logits - top[:, None]).sum(axis=1)
+
+
+def member_stats(columns: np.ndarray, scale: float, spread: bool = True, out=None):
+    """Committee mean and spread of K member outputs given as columns.
+
+    Parameters
+    ----------
+    columns : ndarray, shape (K, 7, m), float32
+        ``contact-v1`` outputs of each member, one row per output.
+    scale : float
+        The pair's L (metres), to express point distances in metres.
+    spread : bool
+        Compute the spread (else zeros).
+    out : (mean, normal_spread, point_spread) arrays to write into, optional.
+
+    Returns
+    -------
+    mean : ndarray, shape (7, m), float32
+    normal_spread : ndarray, shape (m,), float32
+        Largest angle between two members' normals, degrees.
+    point_spread : ndarray, shape (m,), float32
+        Largest distance between two members' points, metres.
+    """
+    k, _, m = columns.shape
+    if out is None:
+        out = np.empty((7, m), np.float32), np.empty(m, np.float32), np.empty(m, np.float32)
+    mean, normal_spread, point_spread = out
+    np.sum(columns, axis=0, out=mean)
+    mean *= np.float32(1.0 / k)
+    chord2 = np.zeros(m, np.float32)
+    dist2 = np.zeros(m, np.float32)
+    if spread and k > 1:
+        normals = columns[:, 3:6]
+        norm2 = (normals * normals).sum(axis=1)
+        unit = normals * (1.0 / np.sqrt(np.maximum(norm2, np.float32(_NORM_FLOOR ** 2))))[:, None]
+        for i in range(k):
+            for j in range(i + 1, k):
+                for values, out in ((unit, chord2), (columns[:, :3], dist2)):
+                    d = values[i] - values[j]
+                    d *= d
+                    np.maximum(out, d.sum(axis=0), out=out)
+    half_chord = np.minimum(np.sqrt(chord2) * np.float32(0.5), np.float32(1.0))
+    np.multiply(np.arcsin(half_chord), np.float32(2.0 * 180.0 / math.pi), out=normal_spread)
+    np.multiply(np.sqrt(dist2), np.float32(scale), out=point_spread)
+    return mean, normal_spread, point_spread

@@ -1,0 +1,78 @@
+"""One entry point for every predictor: :func:`load_predictor`.
+
+``load_predictor(name, bundle=None)`` returns a callable with
+:func:`models.exact.box_box`'s signature that returns `Contacts` with ``confidence`` and
+``predictor`` filled. Names: ``exact`` (the SAT solver, no bundle needed), ``single``,
+``committee``, ``auto`` (learned, from a bundle: a folder path or a loaded
+:class:`models.bundles.Bundle`; None = the shipped default bundle, :data:`DEFAULT_BUNDLE`).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from models.bundles import Bundle, BundleError, read_bundle
+from models.contacts import Contacts
+from models.exact import box_box
+from models.learned import AutoPredictor, CommitteePredictor, LearnedPredictor, SinglePredictor
+from models.learned_one import Prediction
+from models.pair_dispatch import UnsupportedPairError
+
+#: The bundle of the default scene, shipped in the repository.
+DEFAULT_BUNDLE = Path(__file__).resolve().parent / "bundles" / "quay_crane"
+PREDICTOR_NAMES = ("exact", "single", "committee", "auto")
+_LEARNED = {"single": SinglePredictor, "committee": CommitteePredictor, "auto": AutoPredictor}
+
+__all__ = ["DEFAULT_BUNDLE", "PREDICTOR_NAMES", "BundleError", "ExactPredictor", "Prediction",
+           "UnsupportedPairError", "load_predictor"]
+
+
+class ExactPredictor:
+    """The exact solver behind the predictor interface (confidence 1, predictor "exact")."""
+
+    mode = "exact"
+    version = "exact"
+
+    def __call__(self, size_a, position_a, quaternion_a, size_b, position_b,
+                 quaternion_b) -> Contacts:
+        return box_box(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
+
+    def predict(self, size_a, position_a, quaternion_a, size_b, position_b,
+                quaternion_b) -> Prediction:
+        """As calling it, with the (zero) spreads of the learned predictors' ``predict``."""
+        contacts = box_box(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
+        return Prediction(contacts, np.zeros(len(contacts)), np.zeros(len(contacts)))
+
+    def __repr__(self) -> str:
+        return "<exact predictor>"
+
+
+def load_predictor(name: str = "auto", bundle: str | os.PathLike | Bundle | None = None):
+    """The predictor ``name`` (see the module docstring).
+
+    Raises
+    ------
+    ValueError
+        Unknown name.
+    models.bundles.BundleError
+        The bundle is missing, altered or malformed (a learned name without a bundle and no
+        shipped default is reported the same way, naming the folder looked at).
+    """
+    if name not in PREDICTOR_NAMES:
+        raise ValueError(f"unknown predictor {name!r}; choose one of {PREDICTOR_NAMES}")
+    if name == "exact":
+        return ExactPredictor()
+    if bundle is None:
+        if not DEFAULT_BUNDLE.is_dir():
+            raise BundleError(f"predictor {name!r} needs a trained bundle and none was given; "
+                              f"the default bundle {DEFAULT_BUNDLE} does not exist (build it "
+                              "with `impactnet train`, or use predictor 'exact')")
+        bundle = DEFAULT_BUNDLE
+    if not isinstance(bundle, Bundle):
+        bundle = read_bundle(bundle)
+    predictor: LearnedPredictor = _LEARNED[name](bundle)
+    if not any(pair.supports(name) for pair in predictor.pairs) and name != "auto":
+        raise BundleError(f"bundle {bundle.version} has no {name!r} models for any pair")
+    return predictor

@@ -1,0 +1,114 @@
+"""Tiny learned bundles for the tests (not a test module).
+
+The MLPs are fitted in closed form so that their answers mean something: one random tanh
+hidden layer (fixed), then a ridge least-squares output layer ("extreme learning machine"),
+on exact-solver data of small box pairs. The classifier regresses one-hot region targets
+(scaled into confident logits); each region's K experts regress ``contact-v1`` with
+different random hidden layers, so that their spread is real.
+"""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from models import canonical as cn
+from models.bundles import write_bundle
+from models.mlp import MLP, MLPSpec
+from training.datagen import generate_pairs
+
+#: Pairs of the test bundle: distinct sizes (so that swapped requests occur) and a cube pair.
+PAIRS = {"brick/slab": ([1.0, 0.6, 0.4], [2.0, 1.5, 0.3]),
+         "cube/cube": ([1.0, 1.0, 1.0], [1.0, 1.0, 1.0])}
+ROWS = 12000  # labelled rows per pair
+HIDDEN = 48  # random hidden units per network
+K = 3  # experts per region
+MIN_REGION_ROWS = 40  # rarer regions get no class (their rows count as misclassified)
+RIDGE = 1e-3  # ridge penalty of the least-squares fits (dimensionless, inputs normalised)
+LOGIT_GAIN = 8.0  # one-hot fit outputs times this = logits
+AUTO = {"confidence_min": 0.6, "normal_spread_max_deg": 8.0, "point_spread_max": 0.05,
+        "depth_margin": 0.02}
+
+
+def _elm(x, targets, seed, hidden=HIDDEN, classifier=False):
+    """A 12-hidden-out tanh MLP: random first layer, ridge least-squares second layer."""
+    rng = np.random.default_rng(seed)
+    in_mean, in_scale = x.mean(0), x.std(0) + 0.05
+    w0 = rng.normal(size=(hidden, x.shape[1])) * 0.7
+    b0 = rng.normal(size=hidden) * 0.3
+    h = np.tanh(((x - in_mean) / in_scale) @ w0.T + b0)
+    h1 = np.column_stack([h, np.ones(len(h))])
+    if classifier:
+        out_mean, out_scale = np.zeros(targets.shape[1]), np.ones(targets.shape[1])
+    else:
+        out_mean, out_scale = targets.mean(0), targets.std(0) + 1e-3
+    t = (targets - out_mean) / out_scale
+    solution = np.linalg.solve(h1.T @ h1 + RIDGE * len(h1) * np.eye(hidden + 1), h1.T @ t)
+    gain = LOGIT_GAIN if classifier else 1.0
+    spec = MLPSpec("tanh", (x.shape[1], hidden, targets.shape[1]), cn.FEATURES_VERSION,
+                   "region-logits" if classifier else cn.OUTPUTS_VERSION)
+    return MLP(spec, [w0, gain * solution[:-1].T], [b0, gain * solution[-1]], in_mean,
+               in_scale, out_mean, out_scale)
+
+
+def fit_pair(key, size_a, size_b, seed=0):
+    """(manifest pair entry, {name: MLP}) of one pair."""
+    rows = generate_pairs(size_a, size_b, ROWS, seed=seed, progress=False)
+    data = cn.learning_arrays(rows)
+    x, keys = data.features.astype(np.float64), data.keys
+    names, counts = np.unique(keys, return_counts=True)
+    frequent = [str(k) for k, c in sorted(zip(names, counts), key=lambda kc: -kc[1])
+                if c >= MIN_REGION_ROWS and k != cn.NONE_KEY]
+    regions = [cn.NONE_KEY] + frequent
+    tag = key.replace("/", "_")
+    mlps = {}
+    known = np.isin(keys, regions)
+    onehot = (keys[known][:, None] == np.array(regions)[None]).astype(np.float64)
+    mlps[f"{tag}.classifier"] = _elm(x[known], onehot, seed + 1, classifier=True)
+    hit = rows["colliding"]
+    mlps[f"{tag}.single"] = _elm(x[hit], data.targets[hit].astype(np.float64), seed + 2)
+    experts = {}
+    for r, region in enumerate(frequent):
+        mine = keys == region
+        experts[region] = []
+        for k in range(K):
+            name = f"{tag}.expert{r}.{k}"
+            mlps[name] = _elm(x[mine], data.targets[mine].astype(np.float64),
+                              seed + 100 + 10 * r + k, hidden=24)
+            experts[region].append(name)
+    entry = {"size_a": list(size_a), "size_b": list(size_b), "depth_fraction": [0.0, 0.01],
+             "single": f"{tag}.single",
+             "classifier": {"mlp": f"{tag}.classifier", "regions": regions},
+             "experts": experts, "auto": dict(AUTO), "validation": {}}
+    return entry, mlps
+
+
+def bundle_content(seed=0):
+    """(manifest, tensors) of the test bundle."""
+    manifest = {"version": f"test-{seed}", "scene": {"name": "test", "hash": "0" * 64},
+                "created_utc": "2026-01-01T00:00:00Z", "impactnet_version": "0.1.0",
+                "rebuild_command": "tests/models/learned_fixtures.py", "seeds": {"data": seed},
+                "training": {"method": "random tanh layer + ridge least squares"},
+                "mlps": {}, "pairs": {}}
+    tensors = {}
+    for i, (key, (size_a, size_b)) in enumerate(PAIRS.items()):
+        entry, mlps = fit_pair(key, size_a, size_b, seed + 1000 * i)
+        manifest["pairs"][key] = entry
+        for name, model in mlps.items():
+            manifest["mlps"][name] = model.spec.to_dict()
+            tensors.update(model.to_tensors(name))
+    return manifest, tensors
+
+
+def with_auto(manifest, **auto):
+    """A copy of ``manifest`` whose pairs all use the given auto thresholds."""
+    manifest = copy.deepcopy(manifest)
+    for entry in manifest["pairs"].values():
+        entry["auto"] = {**entry["auto"], **auto}
+    return manifest
+
+
+def write_test_bundle(folder, seed=0, content=None):
+    """Write the test bundle (or given (manifest, tensors)) into ``folder``; returns it."""
+    manifest, tensors = content or bundle_content(seed)
+    return write_bundle(folder, manifest, tensors)

@@ -1,0 +1,18 @@
+"""`impactnet bench`: the speed-accuracy trade of every way of answering, measured in one run.
+
+Modules
+-------
+timing      one-core timing helpers and the machine record (shared with ``bench exact``)
+pose_sets   the scene's first-contact poses and the paper's Figure 2 hard case
+polygon     the paper's polygon method (grid-triangulated boxes, FCL BVH meshes)
+methods     every method behind one interface: exact, FCL Box-Box, polygon n, learned
+errors      errors against the exact solver on the same poses
+measure     the measurement plan (BenchConfig) and one method on one pose set
+runner      the run: pose sets, every method on each, the paper check, optional HTTP
+paper       the paper's Section II grid estimate, checked against the polygon sweep
+report      Markdown tables and JSON
+plots       the Pareto plot, the polygon sweep against n, Figure 2 errors against the tilt
+http        the same through the HTTP service (``--http``), on loopback
+
+Nothing here is imported by the package itself, so importing ``training.bench`` stays cheap.
+"""
