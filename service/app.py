@@ -1,8 +1,10 @@
 """``create_app(settings)``: the FastAPI application of impactnet.
 
-Lifespan: the scene and predictors are loaded and warmed up (one exact call) in a worker
-thread, in the background by default, so /healthz answers at once and /readyz says 503 until
-the state is installed; leaving the lifespan (shutdown) turns /readyz to 503 again.
+Lifespan: the scene, the learned bundle (checksums, scene hash, smoke test) and the predictors
+are loaded and warmed up in a worker thread (:mod:`service.state`), in the background by
+default, so /healthz answers at once and /readyz says 503 until the state is installed;
+leaving the lifespan (shutdown) turns /readyz to 503 again. The admin reload route
+(:mod:`service.routers.admin`) is included only when an admin token is configured.
 """
 from __future__ import annotations
 
@@ -17,17 +19,21 @@ from impactnet import __version__
 from service import errors
 from service.middleware import BodyLimit, ConcurrencyLimit, RequestContext
 from service.predictors import ServingState
-from service.routers import batch, contact, health, metrics, models
+from service.reload import Reloader
+from service.routers import admin, batch, contact, health, metrics, models
 from service.runtime import Runtime
-from service.schemas import BatchRequest, ContactRequest
+from service.schemas import BatchRequest, ContactRequest, ReloadRequest
 from service.settings import Settings
 
 log = logging.getLogger("impactnet.service")
 
 DESCRIPTION = """
 Box-box contact for a real-time crane simulator: impact point, contact normal (from A towards
-B), penetration depth, contact type and features, from the exact separating-axis solver
-(mode `exact`; the learned modes `single`, `committee`, `auto` arrive with a learned bundle).
+B), penetration depth, contact type and features. Modes: `exact` (the separating-axis
+solver, always served), and with a learned bundle `single` (one MLP), `committee` (classifier
+-> region -> expert committee, with a confidence) and `auto` (the committee, with the exact
+solver for the pairs it is unsure of or has no model for). Each answer names the `predictor`
+that answered it. Default mode: `auto` with a bundle, `exact` without (GET /v1/models).
 
 Units: metres and radians. A body is `size` (full edge lengths) or a scene `object`, a
 `position` (centre, world frame) and exactly one orientation: `quaternion` [w, x, y, z]
@@ -36,23 +42,27 @@ Units: metres and radians. A body is `size` (full edge lengths) or a scene `obje
 R = Rx(a) Ry(b) Rz(c)).
 
 Errors share one JSON envelope (`error`, `message`, `detail` naming the field, the reason and
-for batches the rows, `request_id`): 422 invalid input, 413 body or batch too large, 409 mode
-not served, 503 not ready / draining / overloaded (Retry-After), 415/406 media types.
+for batches the rows, `request_id`): 422 invalid input, 422 `unsupported_pair` (a strict
+learned mode has no model for the pair's box sizes), 413 body or batch too large, 409 mode
+not served (no bundle), 503 not ready / draining / overloaded (Retry-After), 415/406 media
+types. `POST /v1/admin/reload` exists only when an admin token is configured.
 Every response carries `X-Request-ID` (yours if you sent a sane one); /v1 answers carry
 `X-Model-Version`.
 """ + batch.LAYOUT
 
 
-def _openapi(app: FastAPI):
+def _openapi(app: FastAPI, admin: bool):
     """The generated schema plus the request models, which the routes parse themselves (the
-    batch with NumPy, the single pair with pydantic's JSON parser), so FastAPI does not add
-    them by itself."""
+    batch with NumPy, the single pair and the reload with pydantic's JSON parser), so FastAPI
+    does not add them by itself."""
+    requests = (ContactRequest, BatchRequest) + ((ReloadRequest,) if admin else ())
+
     def build() -> dict:
         if app.openapi_schema is None:
             schema = get_openapi(title=app.title, version=app.version,
                                  description=app.description, routes=app.routes)
             components = schema.setdefault("components", {}).setdefault("schemas", {})
-            for model in (ContactRequest, BatchRequest):
+            for model in requests:
                 extra = model.model_json_schema(ref_template="#/components/schemas/{model}")
                 components.update(extra.pop("$defs", {}))
                 components[model.__name__] = extra
@@ -85,12 +95,14 @@ def create_app(settings: Settings | None = None, state: ServingState | None = No
     app = FastAPI(title="impactnet", version=__version__, description=DESCRIPTION,
                   lifespan=lifespan)
     app.state.runtime = runtime
+    app.state.reloader = Reloader(runtime)
     errors.install(app)
-    for module in (contact, batch, models, health, metrics):
+    admin_enabled = bool(settings.admin_token and settings.admin_token.get_secret_value())
+    for module in (contact, batch, models, health, metrics) + ((admin,) if admin_enabled else ()):
         app.include_router(module.router)
     # add_middleware prepends: the last one added is the outermost.
     app.add_middleware(ConcurrencyLimit, runtime=runtime)
     app.add_middleware(BodyLimit, runtime=runtime)
     app.add_middleware(RequestContext, runtime=runtime)
-    app.openapi = _openapi(app)
+    app.openapi = _openapi(app, admin_enabled)
     return app

@@ -1,6 +1,7 @@
 """HTTP benchmark of the service on loopback (a script, not a test).
 
-    python -m service.bench_http [--quick] [--json PATH] [--access-log]
+    python -m service.bench_http [--quick] [--json PATH] [--access-log] [--mode M]
+                                 [--bundle PATH]
 
 (Run it as a module: ``python service/bench_http.py`` would put service/ first on sys.path,
 where service/logging.py shadows the standard library's logging.)
@@ -17,6 +18,9 @@ after another. Measured in the same run:
   beside the echo of the same request bytes and the exact solver alone in this process.
 
 Goals (issue 5): contact p50 <= 1 ms, p99 <= 3 ms; 100k batch <= 2 s JSON, <= 0.2 s binary.
+``--mode`` is the server's default mode for these requests (``exact`` unless given, so the
+figures stay comparable whether or not a bundle is loaded); ``--bundle`` as ``impactnet
+serve`` (default: the scene's shipped bundle when it exists).
 """
 from __future__ import annotations
 
@@ -146,19 +150,22 @@ def _timed(call, repeats: int) -> dict:
     return {"repeats": repeats, "median_s": float(np.median(times)), "min_s": float(min(times))}
 
 
-def run(quick: bool = False, json_path: str | None = None, access_log: bool = False) -> int:
+def run(quick: bool = False, json_path: str | None = None, access_log: bool = False,
+        mode: str = "exact", bundle: str | None = None) -> int:
     n_single, warmup = (500, 100) if quick else (5000, 500)
     repeats = 2 if quick else 5
     n_batch = 100_000
     echo_port, service_port = _free_port(), _free_port()
-    service_args = ["-m", "service", "--port", str(service_port)]
+    service_args = ["-m", "service", "--port", str(service_port), "--default-mode", mode]
+    if bundle is not None:
+        service_args += ["--bundle", bundle]
     if not access_log:  # access lines are info: with them on, keep the info level
         service_args += ["--no-access-log", "--log-level", "warning"]
     columns = poses(n_batch)
     single_body = json.dumps(PAIR).encode()
-    results: dict = {"access_log": access_log, "machine": {"python": platform.python_version(),
-                                 "cpus": os.cpu_count(), "platform": platform.platform(),
-                                 "load_avg_1m": os.getloadavg()[0]}}
+    machine = {"python": platform.python_version(), "cpus": os.cpu_count(),
+               "platform": platform.platform(), "load_avg_1m": os.getloadavg()[0]}
+    results: dict = {"access_log": access_log, "mode": mode, "machine": machine}
 
     from models.exact import box_box
 
@@ -211,7 +218,7 @@ def _report(r: dict, n_batch: int) -> None:
     m = r["machine"]
     print(f"impactnet HTTP bench: Python {m['python']}, {m['cpus']} CPUs, load avg "
           f"{m['load_avg_1m']:.2f} (a shared machine: figures vary with its load); server "
-          f"access log {'on' if r['access_log'] else 'off'}\n")
+          f"access log {'on' if r['access_log'] else 'off'}; mode {r['mode']}\n")
     print("| request (one keep-alive client, loopback) | p50 ms | p90 ms | p99 ms | mean ms |")
     print("|---|---|---|---|---|")
     for key, label in (("echo_single", "floor: bare uvicorn echo, same body"),
@@ -241,8 +248,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     parser.add_argument("--access-log", action="store_true",
                         help="keep the server's JSON access log on (to /dev/null)")
+    parser.add_argument("--mode", default="exact", choices=["exact", "single", "committee",
+                                                              "auto"],
+                        help="mode of the requests (the server's default mode; default exact)")
+    parser.add_argument("--bundle", help="the server's --bundle (default: the shipped one)")
     args = parser.parse_args(argv)
-    return run(quick=args.quick, json_path=args.json, access_log=args.access_log)
+    return run(quick=args.quick, json_path=args.json, access_log=args.access_log,
+               mode=args.mode, bundle=args.bundle)
 
 
 if __name__ == "__main__":

@@ -1,9 +1,10 @@
 """``impactnet serve``: ``add_arguments(parser)`` and ``run(args) -> int``.
 
 Nothing heavy is imported at module level (``impactnet --help`` stays instant): uvicorn and
-the app are imported inside :func:`run`. Flags override ``IMPACTNET_*`` environment variables
-(see :class:`service.settings.Settings`); the admin token is read from the environment only
-(a flag would show in ``ps``).
+the app are imported inside :func:`run`. The scene and the bundle are loaded (checksums,
+scene hash, smoke test) before the port is bound: a failure exits with status 2. Flags
+override ``IMPACTNET_*`` environment variables (see :class:`service.settings.Settings`); the
+admin token is read from the environment only (a flag would show in ``ps``).
 
 Shutdown: the first SIGTERM / SIGINT turns /readyz to 503 at once, waits ``drain_delay_s``
 (0 by default) so that a load balancer can take the replica out, then uvicorn stops
@@ -13,17 +14,28 @@ returns 0. A second signal forces the exit.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 EXIT_CONFIG = 2
+#: BLAS / OpenMP thread counts of a server process, unless the environment sets them: one.
+#: The service scales with processes (replicas), and batches run in a thread pool; a
+#: multi-threaded BLAS inside concurrent requests oversubscribes the cores, and its threads
+#: spin: on a busy 2-core machine the learned predictors' float32 matmuls ran 5-20x slower
+#: with OpenBLAS's default thread count. Effective only before NumPy is first imported,
+#: which :func:`run` ensures for ``impactnet serve`` and ``python -m service``.
+THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+              "NUMEXPR_NUM_THREADS")
 
 # (flag, settings field, type, help)
 _FLAGS = [
     ("--host", "host", str, "interface to bind (default 127.0.0.1; 0.0.0.0 in a container)"),
     ("--port", "port", int, "TCP port (default 8000; 0 picks a free one)"),
     ("--scene", "scene", str, "scene name or TOML path (default quay_crane; '' for none)"),
-    ("--bundle", "bundle", str, "learned bundle path (not served yet: exact only)"),
-    ("--default-mode", "default_mode", str, "mode of requests that name none (default exact)"),
+    ("--bundle", "bundle", str, "learned bundle folder (default: models/bundles/<scene> when "
+     "it exists; 'none' for mode exact only)"),
+    ("--default-mode", "default_mode", str,
+     "mode of requests that name none (default: auto with a bundle, exact without)"),
     ("--max-body-bytes", "max_body_bytes", int, "largest request body (default 64 MiB)"),
     ("--max-batch-pairs", "max_batch_pairs", int, "largest batch (default 100000)"),
     ("--max-concurrency", "max_concurrency", int, "most /v1 requests in flight (default 64)"),
@@ -53,6 +65,8 @@ def settings_from(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     """Serve until SIGTERM / SIGINT; 0 after a graceful shutdown, 2 for a bad configuration."""
+    for name in THREAD_ENV:
+        os.environ.setdefault(name, "1")
     from pydantic import ValidationError
 
     try:
@@ -65,14 +79,18 @@ def run(args: argparse.Namespace) -> int:
 
     from service import logging as service_logging
     from service.app import create_app
-    from service.predictors import BundleNotSupported, build_state
     from service.scene import SceneLoadError
     from service.server import Server
+    from service.state import LoadError, build_state
 
-    try:  # fail fast, before binding, on a scene or bundle that cannot load
-        state = build_state(settings.scene, settings.bundle)
-    except (SceneLoadError, BundleNotSupported) as exc:
+    try:  # fail fast, before binding: scene, bundle (checksums, scene hash, smoke test)
+        state = build_state(settings)
+    except SceneLoadError as exc:
         print(f"impactnet serve: {exc}", file=sys.stderr)
+        return EXIT_CONFIG
+    except LoadError as exc:
+        print(f"impactnet serve: cannot serve the bundle (step {exc.step}): {exc}",
+              file=sys.stderr)
         return EXIT_CONFIG
     service_logging.configure(settings.log_level)
     app = create_app(settings, state=state)

@@ -132,6 +132,16 @@ class ImpactClient:
     def models(self) -> dict:
         return self._json("GET", "/v1/models")
 
+    def reload(self, token: str, bundle: str | None = None) -> dict:
+        """POST /v1/admin/reload: swap in the bundle at ``bundle`` (a folder on the server;
+        None: the configured one). Returns the report; a failure raises ServiceError whose
+        body names the ``step`` that failed (the old bundle keeps serving)."""
+        payload = {} if bundle is None else {"bundle": str(bundle)}
+        status, headers, data = self.request(
+            "POST", "/v1/admin/reload", _dumps(payload),
+            {"Content-Type": JSON, "Accept": JSON, "Authorization": f"Bearer {token}"})
+        return self._check(status, headers, data)
+
     def contact(self, a: dict, b: dict, mode: str | None = None, include=(),
                 euler_convention: str | None = None) -> dict:
         """One pair. ``a``/``b``: ``{"size" | "object", "position", "quaternion" | "matrix" |

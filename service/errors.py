@@ -79,6 +79,38 @@ class ModeUnavailable(ServiceError):
                          [item("mode", reason, "mode_unavailable")], mode=mode)
 
 
+class UnsupportedPair(ServiceError):
+    """422: a strict learned mode (single, committee) has no model for the box sizes of a
+    pair (or of the batch rows ``rows``); mode ``auto`` would send them to the exact solver."""
+
+    def __init__(self, mode: str, rows, covered, batch: bool):
+        covered = ", ".join(covered) or "none"
+        hint = "use mode 'auto' (exact fallback) or 'exact' for other boxes"
+        if batch:
+            rows = [int(r) for r in rows]
+            shown = f"{rows[:10]}{' ...' if len(rows) > 10 else ''}"
+            reason = (f"mode {mode!r} has no model for the box sizes of {len(rows)} pair(s), "
+                      f"rows {shown}; the bundle covers {covered}")
+            detail = [item("pairs", reason, "unsupported_pair", rows, loc=["pairs"])]
+        else:
+            reason = (f"mode {mode!r} has no model for the box sizes of this pair; the bundle "
+                      f"covers {covered}")
+            detail = [item("pair", reason, "unsupported_pair", loc=["a", "b"])]
+        super().__init__(422, "unsupported_pair", f"{reason}; {hint}", detail, mode=mode)
+
+
+class ReloadFailed(ServiceError):
+    """An admin reload failed at ``step``; the previous bundle keeps serving. 409 when the
+    server cannot reload now (nothing to reload, not ready), 422 when the bundle is at fault
+    (unreadable, altered, another scene, failing the smoke test)."""
+
+    def __init__(self, status: int, step: str, message: str, bundle: str | None,
+                 serving: str | None):
+        super().__init__(status, "reload_failed", f"reload failed at step {step!r}: {message}",
+                         [item("bundle", message, f"reload_{step}", loc=["bundle"])],
+                         step=step, bundle=bundle, model_version=serving)
+
+
 class NotReady(ServiceError):
     """503: loading / warming up, draining, or the load failed."""
 

@@ -1,6 +1,8 @@
 """Prometheus metrics of one app (its own registry, so several apps can live in one process)."""
 from __future__ import annotations
 
+import threading
+
 from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram, disable_created_metrics
 
 # No `*_created` series: they double the output and no dashboard of ours reads them.
@@ -36,14 +38,19 @@ class Metrics:
                                     buckets=BATCH_BUCKETS, registry=r)
         self.fallbacks = Counter(
             "impactnet_auto_fallback_pairs", "Pairs that mode 'auto' handed to the exact "
-            "solver (stays 0 until the learned predictors are served).", registry=r)
+            "solver (unsure or not covered by the bundle).", registry=r)
         self.fallback_rate = Gauge(
-            "impactnet_auto_fallback_rate", "Share of 'auto' pairs of the latest auto request "
-            "that fell back to exact (0 until the learned predictors are served).", registry=r)
+            "impactnet_auto_fallback_rate", "Share of all pairs answered in mode 'auto' since "
+            "the start that fell back to the exact solver (0 before the first).", registry=r)
+        self.reloads = Counter(
+            "impactnet_bundle_reloads", "Admin bundle reloads by result (ok, failed) and the "
+            "step that failed.", ["result", "step"], registry=r)
         self.ready = Gauge("impactnet_ready", "1 when /readyz answers 200.", registry=r)
         self.model_info = Gauge(
             "impactnet_model_info", "The serving state: 1 for the current model version.",
             ["model_version", "scene", "scene_hash", "modes"], registry=r)
+        self._auto_lock = threading.Lock()  # batches are counted from worker threads
+        self._auto_pairs = self._auto_fallbacks = 0
 
     def record_predictions(self, mode: str, predictor_counts: dict[str, int]) -> None:
         """Count the pairs of one request by predictor; in mode 'auto' the rows that the exact
@@ -53,4 +60,7 @@ class Metrics:
         if mode == "auto":
             fallen = predictor_counts.get("exact", 0)
             self.fallbacks.inc(fallen)
-            self.fallback_rate.set(fallen / max(1, sum(predictor_counts.values())))
+            with self._auto_lock:
+                self._auto_pairs += sum(predictor_counts.values())
+                self._auto_fallbacks += fallen
+                self.fallback_rate.set(self._auto_fallbacks / max(1, self._auto_pairs))

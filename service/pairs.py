@@ -11,13 +11,14 @@ import numpy as np
 from models import box_features as bf
 from models.contacts import CONTACT_TYPES, Contacts
 from models.exact import InvalidBoxError
+from models.pair_dispatch import UnsupportedPairError
 from models.rotations import (
     QUATERNION_MIN_NORM,
     InvalidRotationError,
     quaternion_to_matrix,
     rotation_to_quaternion,
 )
-from service.errors import InputError
+from service.errors import InputError, UnsupportedPair
 from service.predictors import PairInputs, Predictor
 from service.scene import SceneView
 from service.schemas import Body, ContactRequest
@@ -177,13 +178,17 @@ def check_finite(contacts: Contacts) -> np.ndarray:
     return np.flatnonzero(bad)
 
 
-def predict_checked(predictor: Predictor, pairs: PairInputs):
-    """Run a predictor; input faults it finds become 422, non-finite answers too (logged:
-    inside the validated range they are a solver bug)."""
+def predict_checked(predictor: Predictor, pairs: PairInputs, batch: bool = False):
+    """Run a predictor; input faults it finds become 422, a pair that a strict learned mode
+    has no model for too (``unsupported_pair``, naming the rows of a ``batch``), non-finite
+    answers too (logged: inside the validated range they are a solver bug)."""
     try:
         contacts = predictor.predict(pairs)
     except (InvalidBoxError, InvalidRotationError) as exc:
         raise InputError(exc.field, str(exc), exc.rows, type_="invalid_box") from exc
+    except UnsupportedPairError as exc:
+        raise UnsupportedPair(predictor.name, exc.rows, getattr(predictor, "covered", ()),
+                              batch) from exc
     bad = check_finite(contacts)
     if bad.size:
         log.error("non-finite answer", extra={"predictor": predictor.name,

@@ -12,8 +12,9 @@ import time
 from importlib.metadata import PackageNotFoundError, version
 
 from service.metrics import Metrics
-from service.predictors import ServingState, build_state, warm_up
+from service.predictors import ServingState, warm_up
 from service.settings import Settings
+from service.state import build_state
 
 log = logging.getLogger("impactnet.service")
 
@@ -65,7 +66,8 @@ class Runtime:
     # ------------------------------------------------------------------ loading
 
     def install(self, state: ServingState) -> None:
-        """Make ``state`` the one new requests use (one reference assignment: atomic)."""
+        """Make ``state`` the one new requests use (one reference assignment: atomic; a
+        request that already read the old state finishes with it)."""
         old = self.serving
         self.serving = state
         if old is not None:
@@ -78,7 +80,7 @@ class Runtime:
                 ",".join(state.modes))
 
     def _build(self, prebuilt: ServingState | None) -> ServingState:
-        state = prebuilt or build_state(self.settings.scene, self.settings.bundle)
+        state = prebuilt or build_state(self.settings)
         warm_up(state)
         return state
 
@@ -96,5 +98,7 @@ class Runtime:
         self.metrics.ready.set(0 if self.draining else 1)
         log.info("ready", extra={"model_version": state.model_version,
                                  "scene": state.scene.name, "modes": state.modes,
+                                 "bundle": state.bundle_path,
+                                 "default_mode": state.default_mode,
                                  "scene_note": state.scene_note,
                                  "seconds": round(time.perf_counter() - started, 3)})

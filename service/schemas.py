@@ -119,8 +119,10 @@ class ContactResponse(BaseModel):
     feature_b: Feature
     axis: int = Field(description="Separating-axis index: 0-2 faces of A, 3-5 faces of B, "
                       "6 + 3i + j edge i of A x edge j of B.")
-    confidence: float = Field(description="1 for exact; a learned predictor's confidence.")
-    predictor: str = Field(description="The predictor that answered.")
+    confidence: float = Field(description="1 for exact; a learned predictor's confidence in "
+                              "[0, 1] (committee: the classifier's probability).")
+    predictor: str = Field(description="The predictor that answered: exact, single, "
+                           "committee (in mode auto: committee, or exact for a fallback).")
     mode: Mode = Field(description="The mode that was requested (or the default).")
     model_version: str
     manifold: Manifold | None = Field(None, description="Only with include=manifold.")
@@ -195,19 +197,49 @@ class ErrorItem(BaseModel):
 
 
 class ErrorResponse(BaseModel):
-    error: str = Field(description="invalid_input, body_too_large, batch_too_large, "
-                       "mode_unavailable, not_ready, overloaded, unsupported_media_type, "
-                       "not_acceptable, not_found, method_not_allowed, internal_error.")
+    error: str = Field(description="invalid_input, unsupported_pair, body_too_large, "
+                       "batch_too_large, mode_unavailable, not_ready, overloaded, "
+                       "unsupported_media_type, not_acceptable, not_found, "
+                       "method_not_allowed, unauthorized, forbidden, reload_failed, "
+                       "internal_error.")
     message: str
     detail: list[ErrorItem] = []
     request_id: str | None = None
-    mode: str | None = None
+    mode: str | None = Field(None, description="The mode at fault (mode_unavailable, "
+                             "unsupported_pair).")
+    step: str | None = Field(None, description="reload_failed: the step that failed "
+                             "(resolve, read, scene_hash, build, smoke, warm_up, install).")
+    bundle: str | None = Field(None, description="reload_failed: the bundle folder tried.")
+    model_version: str | None = Field(None, description="reload_failed: the version that "
+                                      "keeps serving.")
+
+
+class ReloadRequest(BaseModel):
+    """Body of POST /v1/admin/reload; an empty body or ``{}`` re-reads the configured path."""
+
+    model_config = _STRICT
+
+    bundle: Annotated[str, Field(min_length=1, max_length=4096)] | None = Field(
+        None, description="Bundle folder on the server (relative: from the server's working "
+        "directory). Default: the configured one (--bundle, else models/bundles/<scene>).")
+
+
+class ReloadResponse(BaseModel):
+    reloaded: Literal[True]
+    model_version: str = Field(description="The new bundle's version, now serving.")
+    previous_model_version: str | None
+    bundle: str | None = Field(description="Absolute path of the bundle now serving.")
+    modes: list[Mode]
+    default_mode: Mode
+    smoke: dict | None = Field(description="The smoke test's figures per pair and mode.")
+    seconds: float
 
 
 class ModesInfo(BaseModel):
     available: list[Mode]
     unavailable: dict[str, str] = Field(description="mode -> why it cannot answer.")
-    default: Mode
+    default: Mode = Field(description="Mode of requests that name none: auto with a bundle, "
+                          "exact without, unless configured.")
 
 
 class ModelsResponse(BaseModel):
@@ -216,8 +248,10 @@ class ModelsResponse(BaseModel):
     scene: dict | None = Field(description="name, hash, objects (name -> size), pairs; "
                                "null when no scene is loaded.")
     scene_note: str | None = None
-    bundle: dict | None = Field(description="The learned bundle's manifest (versions, "
-                                "validation metrics); null while none is loaded.")
+    bundle: dict | None = Field(description="The learned bundle: path, version, scene (name, "
+                                "hash), created_utc, files (SHA-256), pairs (sizes, modes, "
+                                "validation metrics, auto thresholds), scene pairs covered and "
+                                "not, the smoke test's figures; null while none is loaded.")
     versions: dict[str, str]
     limits: dict[str, int | float]
     contact_types: list[str]

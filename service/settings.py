@@ -24,11 +24,14 @@ class Settings(BaseSettings):
     # Scene name (a file in scenes/) or path of a scene TOML; its bodies are the `object` names a
     # request may use. None or "" serves without a scene (raw sizes only).
     scene: str | None = "quay_crane"
-    # Path of a learned-predictor bundle (single / committee / auto modes). None: `exact` only.
-    # Loading bundles arrives with the learned-predictor issue; until then a value is an error.
+    # Learned-predictor bundle folder (modes single / committee / auto). Unset (None): the
+    # scene's shipped bundle, models/bundles/<scene name>, when that folder exists, else none.
+    # "none" (or ""): no bundle, mode `exact` only. A bundle that cannot be read, fails its
+    # checksums or was built for another scene (hash) stops the server at startup.
     bundle: str | None = None
-    # Mode used when a request names none. Becomes "auto" once a bundle ships.
-    default_mode: Literal["exact", "single", "committee", "auto"] = "exact"
+    # Mode used when a request names none. None: "auto" when a bundle is loaded, "exact"
+    # otherwise. A mode set here must be served (a learned one needs a bundle).
+    default_mode: Literal["exact", "single", "committee", "auto"] | None = None
     # Largest request body in bytes (413 beyond it, checked while the body streams in).
     # 64 MiB holds a 100,000-pair batch as JSON (~40 MB) or as npz (~16 MB).
     max_body_bytes: int = Field(64 * MiB, ge=1024)
@@ -39,9 +42,12 @@ class Settings(BaseSettings):
     max_concurrency: int = Field(64, ge=1)
     # Seconds a client is told to wait (Retry-After) after a 503.
     retry_after_s: int = Field(1, ge=0)
-    # Token for the admin endpoints (bundle reload, arriving with the learned predictors).
-    # None disables them. Give it through the environment, not the command line.
+    # Token of the admin endpoint (POST /v1/admin/reload, `Authorization: Bearer <token>`).
+    # None (or "") disables it: the route does not exist (404). Environment only, never a flag.
     admin_token: SecretStr | None = None
+    # Generated first-contact poses per bundle pair in the smoke test that a bundle passes
+    # against the exact solver before it serves (at startup and on every reload).
+    smoke_poses: int = Field(256, ge=8, le=100_000)
     # Log level of the service's JSON logs: debug, info, warning, error.
     log_level: Literal["debug", "info", "warning", "error", "critical"] = "info"
     # Write one JSON access-log line per request (with its request id, status and duration).

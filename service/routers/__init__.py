@@ -1,4 +1,4 @@
-"""One router per resource: contact, batch, models, health, metrics."""
+"""One router per resource: contact, batch, models, health, metrics, admin."""
 from __future__ import annotations
 
 from service.schemas import ErrorResponse
@@ -9,7 +9,8 @@ ERRORS = {
           "learned bundle loaded)."},
     413: {"model": ErrorResponse, "description": "Body or batch above the limit."},
     422: {"model": ErrorResponse, "description": "Invalid input: `detail` names the field "
-          "and the reason (and, in a batch, the rows)."},
+          "and the reason (and, in a batch, the rows); or `unsupported_pair`: a strict "
+          "learned mode (single, committee) has no model for the pair's box sizes."},
     503: {"model": ErrorResponse, "description": "Not ready, draining, or too many requests "
           "in flight (Retry-After)."},
 }

@@ -80,13 +80,13 @@ def _score(body: bytes, binary_in: bool, answer_type: str, query: dict, state: S
     else:
         columns, body_options = col.parse_json(body)
     options = _options(query, body_options)
-    mode = options.mode or settings.default_mode
+    mode = options.mode or state.default_mode
     predictor = state.predictor(mode)
     if "paper_angles" in options.include and not PAPER_ANGLES_AVAILABLE:
         raise InputError("include", "paper_angles is not available in this build")
     pairs = col.batch_pairs(columns, state.scene, options.euler_convention,
                             settings.max_batch_pairs)
-    contacts = predict_checked(predictor, pairs)
+    contacts = predict_checked(predictor, pairs, batch=True)
     arrays = col.answer_arrays(contacts, pairs, options.include)
     counts = np.bincount(arrays["predictor_code"], minlength=len(arrays["predictor_names"]))
     runtime.metrics.record_predictions(mode, dict(zip(arrays["predictor_names"].tolist(),

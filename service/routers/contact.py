@@ -44,7 +44,7 @@ async def contact(request: Request, runtime: RuntimeDep, state: ServingDep) -> R
     metres, radians. Runs inline on the event loop (a single exact pair takes ~50 us).
     """
     body = parse_body(await request.body(), request.headers.get("content-type"))
-    mode = body.mode or runtime.settings.default_mode
+    mode = body.mode or state.default_mode
     predictor = state.predictor(mode)
     if "paper_angles" in body.include and not PAPER_ANGLES_AVAILABLE:
         raise InputError("include", "paper_angles is not available in this build")

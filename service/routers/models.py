@@ -1,7 +1,7 @@
 """GET /v1/models: what this server serves."""
 from __future__ import annotations
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Response
 
 from models import box_features as bf
 from models.contacts import CONTACT_TYPES
@@ -17,12 +17,13 @@ FEATURE_NAMES = {str(i): bf.feature_name(i) for i in range(-1, bf.N_FEATURES)}
 
 @router.get("/v1/models", response_model=ModelsResponse, responses={503: ERRORS[503]},
             summary="Scene, bundle, versions and modes of this server")
-async def models(runtime: RuntimeDep, state: ServingDep) -> ModelsResponse:
+async def models(runtime: RuntimeDep, state: ServingDep, response: Response) -> ModelsResponse:
     settings = runtime.settings
+    response.headers["X-Model-Version"] = state.model_version
     return ModelsResponse(
         model_version=state.model_version,
         modes={"available": state.modes, "unavailable": state.unavailable,
-               "default": settings.default_mode},
+               "default": state.default_mode},
         scene=state.scene.describe() if state.scene.name else None,
         scene_note=state.scene_note,
         bundle=state.bundle,

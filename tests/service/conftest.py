@@ -46,11 +46,24 @@ def pair(**changes) -> dict:
 
 
 def test_settings(**overrides) -> Settings:
-    base = {"load_in_background": False, "access_log": False}
+    """Settings of an in-process test app: loaded before the first request, no access log,
+    and no learned bundle unless one is given (the shipped default bundle, when there is
+    one, must not change what these tests see)."""
+    base = {"load_in_background": False, "access_log": False, "bundle": "none"}
     return Settings(**(base | overrides))
 
 
 test_settings.__test__ = False  # a helper, not a test
+
+
+@pytest.fixture(autouse=True)
+def _restore_thread_env(monkeypatch):
+    """``service.cli.run`` pins BLAS thread counts in ``os.environ``; tests that call it in
+    process must not leave them behind for later tests (monkeypatch restores them)."""
+    from service.cli import THREAD_ENV
+
+    for name in THREAD_ENV:
+        monkeypatch.setenv(name, os.environ.get(name, "1"))
 
 
 @pytest.fixture
@@ -107,11 +120,16 @@ def get(port: int, path: str, timeout: float = 5.0) -> tuple[int, bytes]:
 
 
 class ServerProcess:
-    """``python -m service`` (what ``impactnet serve`` runs) on a free loopback port."""
+    """``python -m service`` (what ``impactnet serve`` runs) on a free loopback port; with
+    ``--bundle none`` unless ``args`` or ``env`` name a bundle (``bundle_default=True``
+    leaves the shipped default bundle to the server)."""
 
-    def __init__(self, python: str = sys.executable, args=(), env=None, cwd=REPO) -> None:
+    def __init__(self, python: str = sys.executable, args=(), env=None, cwd=REPO,
+                 bundle_default: bool = False) -> None:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
+        if not bundle_default and "--bundle" not in args and "IMPACTNET_BUNDLE" not in (env or {}):
+            args = [*args, "--bundle", "none"]
         cmd = [python, "-m", "service", "--port", str(self.port), *args]
         full_env = {**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})}
         # A file, not a pipe: nobody reads a pipe while the server runs, and a full pipe

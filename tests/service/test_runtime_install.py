@@ -1,5 +1,6 @@
 """The Docker runtime stage without Docker: wheels of the project (no extras), installed into
-a fresh virtualenv, must serve /readyz and /v1/contact with no torch installed."""
+a fresh virtualenv, must serve /readyz and /v1/contact with no torch installed; when the
+repository ships the default scene's bundle, the installed package serves it (mode auto)."""
 from __future__ import annotations
 
 import json
@@ -60,19 +61,30 @@ def test_runtime_install_serves_without_torch(tmp_path):
     env = {"IMPACTNET_SCENES_DIR": str(tmp_path / "scenes"), "OMP_NUM_THREADS": "1",
            "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
            "PYTHONPATH": "", "PATH": f"{venv / 'bin'}:{os.environ['PATH']}"}
-    proc = ServerProcess(python=python, env=env, cwd=workdir)
+    shipped = (REPO / "models" / "bundles" / "quay_crane").is_dir()
+    proc = ServerProcess(python=python, env=env, cwd=workdir, bundle_default=True)
     try:
         proc.wait_ready(timeout=120)
-        request = urllib.request.Request(
-            f"{proc.url}/v1/contact", data=json.dumps(
-                {"a": {"object": "cube", "position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
-                 "b": PAIR["b"]}).encode(),
-            headers={"Content-Type": "application/json"})
-        with urllib.request.urlopen(request, timeout=10) as response:
-            assert response.status == 200
-            answer = json.loads(response.read())
+
+        def contact(mode: str) -> dict:
+            request = urllib.request.Request(
+                f"{proc.url}/v1/contact", data=json.dumps(
+                    {"a": {"object": "cube", "position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
+                     "b": PAIR["b"], "mode": mode}).encode(),
+                headers={"Content-Type": "application/json"})
+            with urllib.request.urlopen(request, timeout=10) as response:
+                assert response.status == 200
+                return json.loads(response.read())
+
+        answer = contact("exact")
         assert answer["colliding"] is True and answer["predictor"] == "exact"
         assert answer["contact_type"] != "none" and abs(answer["normal"][2] - 1) < 1e-9
+        with urllib.request.urlopen(f"{proc.url}/v1/models", timeout=10) as response:
+            models = json.loads(response.read())
+        assert (models["bundle"] is not None) == shipped
+        if shipped:  # the wheel carries the bundle and serves it without torch
+            assert models["modes"]["default"] == "auto"
+            assert contact("auto")["predictor"] in ("committee", "exact")
         _run(python, "-c", "import service.app, sys; "
              "sys.exit('torch' in sys.modules or not service.app.__file__.startswith("
              f"{str(venv)!r}))", cwd=workdir)

@@ -18,7 +18,7 @@ def _args(*argv: str) -> argparse.Namespace:
 def test_safe_defaults():
     s = Settings(_env_file=None)
     assert s.host == "127.0.0.1" and s.port == 8000 and s.scene == "quay_crane"
-    assert s.admin_token is None and s.bundle is None and s.default_mode == "exact"
+    assert s.admin_token is None and s.bundle is None and s.default_mode is None
     assert s.max_body_bytes == 64 * 1024 * 1024 and s.max_batch_pairs == 100_000
 
 
@@ -33,7 +33,7 @@ def test_environment_and_flags(monkeypatch):
 
 @pytest.mark.parametrize("argv,message", [
     (("--scene", "no_such_scene"), "no_such_scene"),
-    (("--bundle", "some/bundle"), "bundle"),
+    (("--bundle", "some/bundle"), "some/bundle"),
     (("--max-batch-pairs", "0"), "invalid setting"),
     (("--default-mode", "fastest"), "invalid setting"),
 ])

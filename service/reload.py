@@ -1,0 +1,89 @@
+"""Admin reload of the learned bundle: built beside the serving one, checked, then swapped.
+
+:meth:`Reloader.reload` runs in a worker thread (the event loop keeps answering) and takes
+these steps; the first that fails ends the reload with :class:`service.errors.ReloadFailed`
+naming it, and the state that was serving keeps serving, untouched:
+
+1. ``resolve``: the folder: the one the request names (relative paths from the server's
+   working directory), or the configured one (``settings.bundle``, else the scene's shipped
+   bundle); 409 when the server is not ready or has no bundle path to re-read.
+2. ``read``, ``scene_hash``, ``build``, ``smoke``: as at startup (:mod:`service.state`): the
+   checksums are verified, the bundle must be built for the served scene (the scene is
+   kept), every learned mode is built, and the smoke test runs against the exact solver.
+3. ``warm_up``: every predictor of the new state answers once.
+4. ``install``: :meth:`service.runtime.Runtime.install`, one reference assignment. A request
+   that read the old state finishes with it; every later request reads the new one.
+
+Reloads are serialised by a lock: a second one waits for the first, then builds on the
+state that the first installed. Steps 1-3 fail with 422 (the bundle is at fault).
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from pathlib import Path
+
+from service.errors import ReloadFailed
+from service.predictors import warm_up
+from service.runtime import Runtime
+from service.state import LoadError, configured_bundle, state_for
+
+log = logging.getLogger("impactnet.service")
+
+
+class Reloader:
+    """Serialised reloads of one runtime's bundle."""
+
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
+        self._lock = threading.Lock()
+
+    def reload(self, requested: str | None) -> dict:
+        """Reload from ``requested`` (None: the configured path); returns the report."""
+        with self._lock:
+            started = time.perf_counter()
+            try:
+                report = self._reload(requested)
+            except ReloadFailed as exc:
+                self.runtime.metrics.reloads.labels("failed", exc.extra["step"]).inc()
+                log.warning("reload failed", extra={"step": exc.extra["step"],
+                                                    "error": exc.message})
+                raise
+            report["seconds"] = round(time.perf_counter() - started, 3)
+            self.runtime.metrics.reloads.labels("ok", "").inc()
+            log.info("reloaded", extra={k: report[k] for k in (
+                "model_version", "previous_model_version", "bundle", "seconds")})
+            return report
+
+    def _reload(self, requested: str | None) -> dict:
+        runtime = self.runtime
+        old = runtime.serving
+        serving = old.model_version if old is not None else None
+        if old is None or not runtime.warm or runtime.draining:
+            raise ReloadFailed(409, "resolve", "the server is not ready: "
+                               f"{runtime.not_ready_reason()}", requested, serving)
+        path = (Path(requested).expanduser() if requested
+                else configured_bundle(runtime.settings.bundle, old.scene))
+        if path is None:
+            raise ReloadFailed(409, "resolve", "no bundle path is configured and none was "
+                               'given; send {"bundle": "<folder>"}', None, serving)
+        step = "read"
+        try:
+            new = state_for(old.scene, path, runtime.settings, old.scene_note)
+            step = "warm_up"
+            warm_up(new)
+        except LoadError as exc:
+            raise ReloadFailed(422, exc.step, str(exc), str(path), serving) from exc
+        except Exception as exc:  # noqa: BLE001 - whatever breaks, the old state keeps serving
+            log.exception("reload: unexpected failure", extra={"step": step})
+            raise ReloadFailed(422, step, f"{type(exc).__name__}: {exc}", str(path),
+                               serving) from exc
+        if runtime.draining:  # a shutdown began meanwhile: keep what is serving
+            raise ReloadFailed(409, "install", "the server began shutting down", str(path),
+                               serving)
+        runtime.install(new)
+        return {"reloaded": True, "model_version": new.model_version,
+                "previous_model_version": serving, "bundle": new.bundle_path,
+                "modes": new.modes, "default_mode": new.default_mode,
+                "smoke": (new.bundle or {}).get("smoke")}
