@@ -24,7 +24,6 @@ EXIT_NOT_IMPLEMENTED = 2
 
 # Which issue brings each subcommand that does not exist yet.
 _PENDING = {
-    "train": "issue 4, 'The learned predictors' (retraining jobs: issue 6)",
     "sweep": "issue 6, 'Retraining jobs and sweeps'",
     "evaluate": "issue 4, 'The learned predictors'",
 }
@@ -131,6 +130,8 @@ _DELEGATED = {
     "bench": ("training.bench_cli",
               "speed and accuracy of every method on the same poses ('bench exact': the exact "
               "solver against python-fcl)"),
+    "train": ("training.train_cli",
+              "train the learned predictors of a scene's pairs into a bundle"),
     "reproduce-paper": ("training.reproduce_paper_cli",
                         "reproduce the paper's Tables 1 and 2 and Figures 5 and 6"),
 }
@@ -161,7 +162,6 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     for name, help_text in [
-        ("train", "train the learned predictors of a scene (not implemented yet)"),
         ("sweep", "hyper-parameter sweep with Optuna (not implemented yet)"),
         ("evaluate", "evaluate a bundle on a held-out set (not implemented yet)"),
     ]:

@@ -95,8 +95,10 @@ def _numbers(value, count: int, what: str) -> tuple[float, ...]:
     return tuple(float(v) for v in value)
 
 
-def _check_mlp(name, mlps: dict[str, MLP], what: str, n_out: int | None) -> str:
-    """``name`` if it is a declared MLP taking pose-v1 (and giving ``n_out`` outputs)."""
+def _check_mlp(name, mlps: dict[str, MLP], what: str, n_out: int | None,
+               regression: bool = True) -> str:
+    """``name`` if it is a declared MLP taking pose-v1 (and giving ``n_out`` outputs; a
+    regression network must declare contact-v1 outputs, a classifier names its own)."""
     if not isinstance(name, str) or name not in mlps:
         raise BundleError(f"{what}: no MLP {name!r} in the bundle")
     spec = mlps[name].spec
@@ -105,7 +107,7 @@ def _check_mlp(name, mlps: dict[str, MLP], what: str, n_out: int | None) -> str:
                           f"({cn.N_POSE_FEATURES} inputs)")
     if n_out is not None and spec.layers[-1] != n_out:
         raise BundleError(f"{what}: MLP {name!r} has {spec.layers[-1]} outputs, needs {n_out}")
-    if n_out == cn.N_CONTACT_OUTPUTS and spec.outputs != cn.OUTPUTS_VERSION:
+    if regression and spec.outputs != cn.OUTPUTS_VERSION:
         raise BundleError(f"{what}: MLP {name!r} must give {cn.OUTPUTS_VERSION}")
     return name
 
@@ -154,7 +156,8 @@ def _committee(entry: dict, mlps: dict[str, MLP], where: str):
             cn.parse_region_key(region)
         except ValueError as exc:
             raise BundleError(f"{where}.classifier.regions: {exc}") from None
-    name = _check_mlp(block["mlp"], mlps, f"{where}.classifier", len(regions))
+    name = _check_mlp(block["mlp"], mlps, f"{where}.classifier", len(regions),
+                      regression=False)
     experts = entry.get("experts")
     if not isinstance(experts, dict) or set(experts) != set(regions[1:]):
         raise BundleError(f"{where}.experts: need one committee per region except 'none'")

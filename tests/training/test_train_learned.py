@@ -1,0 +1,82 @@
+"""`impactnet train --quick` end to end: a bundle the inference side reads and whose predictors
+answer; the same seed gives the same weights."""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pytest
+
+from models import load_predictor
+from models.bundles import read_bundle
+from models.scenes import load_scene
+from training.calibrate import THRESHOLD_NAMES
+from training.datagen import generate_pairs
+from training.scene_figures import GOALS
+from training.train import quick_config, train_pairs
+from training.train_cli import add_arguments, run
+
+SCENE = "paper"
+PAIR = "cube/cube"
+
+
+@pytest.fixture(scope="module")
+def quick_bundle(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bundle") / SCENE
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args(["--scene", SCENE, "--out", str(out), "--seed", "2", "--quick",
+                              "--no-progress"])
+    return run(args), out
+
+
+def test_quick_training_writes_a_bundle_that_reads_back(quick_bundle):
+    status, out = quick_bundle
+    assert status == 0
+    bundle = read_bundle(out)
+    manifest = bundle.manifest
+    scene = load_scene(SCENE)
+    assert manifest["scene"] == {"name": SCENE, "hash": scene.hash()}
+    assert manifest["rebuild_command"] == (f"impactnet train --scene {SCENE} --out "
+                                           f"{out.as_posix()} --seed 2 --quick")
+    assert manifest["seeds"] == {"data": 2, "torch": 2}
+    assert manifest["training"]["config"]["quick"] is True
+    pair = manifest["pairs"][PAIR]
+    assert set(pair["auto"]) == set(THRESHOLD_NAMES)
+    assert pair["classifier"]["regions"][0] == "none"
+    assert set(pair["experts"]) == set(pair["classifier"]["regions"][1:])
+    for split in ("validation", "test"):
+        figures = pair[split]
+        assert 0.0 <= figures["region_accuracy"] <= 1.0
+        assert 0.0 <= figures["auto"]["fallback_share"] <= 1.0
+        assert {"committee", "single", "auto"} <= set(figures)
+    assert bundle.pairs[PAIR].auto is not None
+    assert not list(out.parent.glob(f".{SCENE}.*"))  # no temporary folder left behind
+    goals = manifest["figures"]["test"]["goals"]
+    assert set(goals) == set(GOALS)
+    assert all(isinstance(goal["met"], bool) for goal in goals.values())
+
+
+@pytest.mark.parametrize("name", ["single", "committee", "auto"])
+def test_predictors_of_the_quick_bundle_answer(quick_bundle, name):
+    _, out = quick_bundle
+    predictor = load_predictor(name, out)
+    size = load_scene(SCENE).size("cube")
+    rows = generate_pairs(size, size, 300, 11, progress=False)
+    inputs = [rows[k] for k in ("size_a", "position_a", "quaternion_a", "size_b",
+                                "position_b", "quaternion_b")]
+    contacts = predictor(*inputs)
+    assert len(contacts) == 300
+    assert np.isfinite(contacts.normal).all() and np.isfinite(contacts.point).all()
+    np.testing.assert_allclose(np.linalg.norm(contacts.normal, axis=1), 1.0, atol=1e-5)
+    assert set(contacts.predictor) <= {name, "committee", "exact"}
+
+
+def test_same_seed_same_weights():
+    scene = load_scene(SCENE)
+    first = train_pairs(scene, quick_config(seed=4), progress=False)[0]
+    second = train_pairs(scene, quick_config(seed=4), progress=False)[0]
+    assert first.tensors.keys() == second.tensors.keys()
+    for key, value in first.tensors.items():
+        np.testing.assert_array_equal(value, second.tensors[key], err_msg=key)
+    assert first.block["auto"] == second.block["auto"]

@@ -1,0 +1,92 @@
+"""Scene-level figures: the test rows of every pair pooled, against the goals of issue 4.
+
+Per-pair figures live in each pair's manifest block; the goals are stated for the scene's
+held-out test set as a whole, so :func:`pooled_figures` pools the per-row errors of all pairs
+(:func:`row_record` keeps what is needed of one pair's test rows) and compares them with
+:data:`GOALS`. :func:`reevaluate` rebuilds the records of a written bundle from the same seeded
+data (for bundles trained before the records were kept, or to check one).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from models.bundles import read_bundle
+from models.scenes import Scene
+from training.calibrate import auto_keep, calibration_scores
+from training.datagen import pair_seed
+from training.pair_data import make_pair_data
+from training.pair_eval import MISMATCH_REPORTED, evaluate_rows, summarise
+
+#: Issue 4's goals on the default scene's test set: (figure path, bound, "<=" or ">=").
+GOALS = {
+    "region accuracy": (("region_accuracy",), 0.98, ">="),
+    "committee normal median (deg)": (("committee", "normal_deg", "median"), 0.2, "<="),
+    "committee normal mean (deg)": (("committee", "normal_deg", "mean"), 1.0, "<="),
+    "committee point median (fraction of e)": (("committee", "point_fraction", "median"),
+                                               0.005, "<="),
+    "committee point mean (fraction of e)": (("committee", "point_fraction", "mean"), 0.015,
+                                             "<="),
+    "auto p99 normal (deg)": (("auto", "normal_deg", "p99"), 1.0, "<="),
+    "auto p99 point (fraction of e)": (("auto", "point_fraction", "p99"), 0.02, "<="),
+    "auto fallback share": (("auto", "fallback_share"), 0.10, "<="),
+}
+
+
+def row_record(pred: dict, keep: np.ndarray) -> dict:
+    """What pooling needs of one pair's evaluated rows (:func:`training.pair_eval.evaluate_rows`
+    output and the rows ``auto`` keeps)."""
+    both = (pred["region"] != 0) & pred["true_contact"]
+    record = {"region_ok": pred["region"] == pred["true_region"], "both": both,
+              "true_contact": pred["true_contact"], "keep": keep,
+              "normal": pred["errors"]["normal_deg"], "point": pred["errors"]["point"]}
+    if "single_errors" in pred:
+        record["single_normal"] = pred["single_errors"]["normal_deg"]
+        record["single_point"] = pred["single_errors"]["point"]
+    return record
+
+
+def pooled_figures(records: list[dict]) -> dict:
+    """Scene figures of pooled row records, with each goal's bound and whether it is met."""
+    rows = {k: np.concatenate([r[k] for r in records]) for k in records[0]}
+    both, contact, keep = rows["both"], rows["true_contact"], rows["keep"]
+    auto_rows = contact | keep
+    figures = {
+        "rows": int(len(both)),
+        "region_accuracy": float(rows["region_ok"].mean()),
+        "committee": {"normal_deg": summarise(rows["normal"][both]),
+                      "point_fraction": summarise(rows["point"][both])},
+        "auto": {"fallback_share": float(1.0 - keep.mean())},
+    }
+    for name, key, cap in (("normal_deg", "normal", MISMATCH_REPORTED["normal_deg"]),
+                           ("point_fraction", "point", MISMATCH_REPORTED["point"])):
+        errors = np.minimum(np.where(keep, rows[key], 0.0), cap)
+        figures["auto"][name] = summarise(errors[auto_rows])
+    if "single_normal" in rows:
+        figures["single"] = {"normal_deg": summarise(rows["single_normal"][contact]),
+                             "point_fraction": summarise(rows["single_point"][contact])}
+    figures["goals"] = {}
+    for goal, (path, bound, sense) in GOALS.items():
+        value = figures
+        for part in path:
+            value = value[part]
+        met = value is not None and (value >= bound if sense == ">=" else value <= bound)
+        figures["goals"][goal] = {"value": value, "bound": bound, "met": bool(met)}
+    return figures
+
+
+def reevaluate(scene: Scene, bundle_path, config) -> list[dict]:
+    """Row records of every pair's test split of a written bundle, from the seeded data.
+
+    ``config`` is the :class:`training.train_pair.PairTrainConfig` the bundle was trained with.
+    """
+    bundle = read_bundle(bundle_path)
+    records = []
+    for index, pair in enumerate(scene.pairs):
+        block = bundle.manifest["pairs"][pair.key]
+        size_a, size_b = scene.pair_sizes()[index]
+        data = make_pair_data(size_a, size_b, pair_seed(config.seed, pair),
+                              scene.depth_fraction, config.data, config.datagen)
+        pred = evaluate_rows(data, "test", bundle.mlps, block, block["single"])
+        keep = auto_keep(calibration_scores(pred, data.depth_fraction), block["auto"])
+        records.append(row_record(pred, keep))
+    return records
