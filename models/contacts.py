@@ -105,6 +105,34 @@ class Contacts:
         """Rows selected by an integer or boolean index array, as a new `Contacts`."""
         return Contacts(**{name: value[index] for name, value in self.arrays().items()})
 
+    @classmethod
+    def one_row(cls, floats: list, ints: list, colliding: bool, predictor: str) -> Contacts:
+        """A one-row `Contacts` from two flat lists, with two allocations instead of a dozen
+        (NumPy's per-call cost dominates a single pair).
+
+        Parameters
+        ----------
+        floats : list of float, length 7 + 4 * MAX_MANIFOLD_POINTS + 1
+            normal (3), point (3), depth, manifold points (8 x 3, row-major, zero padded),
+            manifold depths (8, zero padded), confidence.
+        ints : list of int, length 5
+            contact type code, feature_a, feature_b, axis, manifold count.
+        colliding : bool
+        predictor : str
+            Name of the predictor that answered.
+        """
+        values = np.array(floats)
+        small = np.array(ints, np.int8)
+        m = 7 + 3 * MAX_MANIFOLD_POINTS
+        return cls(
+            colliding=np.array([colliding]), normal=values[0:3].reshape(1, 3),
+            depth=values[6:7], point=values[3:6].reshape(1, 3), contact_type_code=small[0:1],
+            feature_a=small[1:2], feature_b=small[2:3], axis=small[3:4],
+            manifold_points=values[7:m].reshape(1, MAX_MANIFOLD_POINTS, 3),
+            manifold_depths=values[m:m + MAX_MANIFOLD_POINTS].reshape(1, -1),
+            manifold_count=small[4:5], confidence=values[-1:],
+            predictor=np.array([predictor]))
+
     def arrays(self) -> dict[str, np.ndarray]:
         """All fields as a name -> array mapping (the arrays themselves, not copies)."""
         return {name: getattr(self, name) for name in self.__dataclass_fields__}

@@ -21,7 +21,6 @@ from models.sat import CONTACT_TOL_REL, EDGE_SKEW_TOL_REL, TIE_TOL_REL
 _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]
 _FACE_REF_CODES = (0, ct.FACE_VERTEX, ct.FACE_EDGE, ct.FACE_FACE)
 _FACE_INC_CODES = (0, ct.VERTEX_FACE, ct.EDGE_FACE, ct.FACE_FACE)
-_EXACT_NAME = np.array(["exact"])
 _PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
 
 
@@ -350,13 +349,5 @@ def _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, m
     floats.extend([d for _, d in manifold])
     floats.extend(_PADDING[: ct.MAX_MANIFOLD_POINTS - len(manifold)])
     floats.append(1.0)
-    values = np.array(floats)
-    ints = np.array([code, feature_a, feature_b, axis, len(manifold)], np.int8)
-    m = 7 + 3 * ct.MAX_MANIFOLD_POINTS
-    return ct.Contacts(
-        colliding=np.array([colliding]), normal=values[0:3].reshape(1, 3),
-        depth=values[6:7], point=values[3:6].reshape(1, 3), contact_type_code=ints[0:1],
-        feature_a=ints[1:2], feature_b=ints[2:3], axis=ints[3:4],
-        manifold_points=values[7:m].reshape(1, ct.MAX_MANIFOLD_POINTS, 3),
-        manifold_depths=values[m:m + ct.MAX_MANIFOLD_POINTS].reshape(1, -1),
-        manifold_count=ints[4:5], confidence=values[-1:], predictor=_EXACT_NAME.copy())
+    return ct.Contacts.one_row(floats, [code, feature_a, feature_b, axis, len(manifold)],
+                               colliding, "exact")

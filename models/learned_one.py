@@ -203,13 +203,5 @@ def _contacts(colliding, normal, depth, point, code, feature_a, feature_b, axis,
     solver's scalar path builds it; the manifold is the point itself (count 1) or empty."""
     floats = normal + point + [depth] + (point if colliding else [0.0] * 3) + _PADDING[3:]
     floats += [depth] + _PADDING[:ct.MAX_MANIFOLD_POINTS - 1] + [confidence]
-    values = np.array(floats)
-    ints = np.array([code, feature_a, feature_b, axis, 1 if colliding else 0], np.int8)
-    m = 7 + 3 * ct.MAX_MANIFOLD_POINTS
-    return ct.Contacts(
-        colliding=np.array([colliding]), normal=values[0:3].reshape(1, 3),
-        depth=values[6:7], point=values[3:6].reshape(1, 3), contact_type_code=ints[0:1],
-        feature_a=ints[1:2], feature_b=ints[2:3], axis=ints[3:4],
-        manifold_points=values[7:m].reshape(1, ct.MAX_MANIFOLD_POINTS, 3),
-        manifold_depths=values[m:m + ct.MAX_MANIFOLD_POINTS].reshape(1, -1),
-        manifold_count=ints[4:5], confidence=values[-1:], predictor=np.array([name], "<U9"))
+    return ct.Contacts.one_row(floats, [code, feature_a, feature_b, axis, 1 if colliding else 0],
+                               colliding, name)
