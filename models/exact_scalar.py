@@ -41,7 +41,7 @@ def _quat_matrix(q):
 
 
 def _overlaps(ha, hb, rot, t, scale):
-    """Overlap along the 15 axes and the unit axes, as in :func:`models.sat.overlaps`."""
+    """Overlap along the 15 axes and the unit axes, as in :func:`models.sat.overlap_columns`."""
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rot
     a0, a1, a2 = ha
     b0, b1, b2 = hb

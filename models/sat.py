@@ -22,14 +22,14 @@ percentage bias ("fudge factor") towards face axes.
 Layout: the vectorised solver works on columns (:mod:`models.local_frame`); overlaps are
 (15, m). Only the chosen axis is kept as a vector: :func:`unit_axis` recomputes it from its
 id with the same formulas. Every formula sums its terms in the order of
-:mod:`models.exact_scalar`, so both paths agree to the last bit. :func:`overlaps` keeps the
-row-major (n, 15) interface.
+:mod:`models.exact_scalar`, so both paths agree to the last bit. (A row-major (n, 15)
+overlap table for tests and data work is :func:`models.approach.axis_overlaps`.)
 """
 from __future__ import annotations
 
 import numpy as np
 
-from models.local_frame import LocalPose, matvec_transposed
+from models.local_frame import LocalPose
 
 #: Relative tolerance (x pair scale, metres) for axis ties: rounding of an overlap is a few
 #: ulps of the scale, so differences below this are noise, not geometry.
@@ -110,38 +110,6 @@ def overlap_columns(pose: LocalPose) -> np.ndarray:
     _face_overlaps(pose, over)
     _cross_overlaps(pose, over)
     return over
-
-
-def overlaps(half_a, half_b, rotation, translation):
-    """Row-major interface to :func:`overlap_columns`.
-
-    Parameters
-    ----------
-    half_a, half_b : ndarray, shape (n, 3)
-        Half-extents of A and B (metres).
-    rotation : ndarray, shape (n, 3, 3)
-        B's axes as columns in A's frame.
-    translation : ndarray, shape (n, 3)
-        B's centre in A's frame (metres).
-
-    Returns
-    -------
-    overlap : ndarray, shape (n, 15)
-        Overlap (metres) along each axis; +inf where a degenerate cross axis was skipped.
-    unit_axes : ndarray, shape (n, 15, 3)
-        Unit axes in A's frame (zeros for skipped axes), not yet oriented A -> B.
-    """
-    n = np.shape(translation)[0]
-    pose = LocalPose(np.empty((LocalPose.ROWS, n)))
-    pose.ha[:], pose.hb[:] = np.asarray(half_a).T, np.asarray(half_b).T
-    pose.r[:] = np.asarray(rotation).reshape(n, 9).T
-    pose.t[:] = np.asarray(translation).T
-    matvec_transposed(pose.r.reshape(3, 3, -1), pose.t, pose.tb)
-    pose.scale[:] = pair_scale(np.asarray(half_a), np.asarray(half_b))
-    over = overlap_columns(pose)
-    unit = np.array([unit_axis(pose, np.full(n, k))[0] for k in range(15)])  # (15, 3, n)
-    unit = np.where(np.isinf(over)[:, None, :], 0.0, unit)
-    return over.T.copy(), unit.transpose(2, 0, 1).copy()
 
 
 def _first_true(flags: np.ndarray) -> np.ndarray:

@@ -42,14 +42,15 @@ def overlap_along(direction, poses):
 
 
 def second_best_ratio(poses):
-    """Second-smallest over smallest of the 15 SAT overlaps (axes counted by index)."""
-    from models import sat
+    """Second-smallest over smallest of the 15 SAT overlaps (axes counted by index), from
+    `models.approach.axis_overlaps`, an implementation apart from the solver's."""
+    from models.approach import axis_overlaps
     from models.rotations import quaternion_to_matrix
 
     rot_a = quaternion_to_matrix(poses["quaternion_a"])
     rot = np.swapaxes(rot_a, 1, 2) @ quaternion_to_matrix(poses["quaternion_b"])
     t = np.einsum("nij,ni->nj", rot_a, poses["position_b"] - poses["position_a"])
-    over, _ = sat.overlaps(0.5 * poses["size_a"], 0.5 * poses["size_b"], rot, t)
+    over = axis_overlaps(poses["size_a"], poses["size_b"], rot, t)
     two = np.sort(over, axis=1)[:, :2]
     return two[:, 1] / two[:, 0]
 

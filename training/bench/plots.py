@@ -72,6 +72,11 @@ def pareto(results: dict, path: Path) -> Path:
             ax.set_title(f"{name}: p99 error against time per pair", fontsize=10)
     fig.suptitle(f"Errors <= {ERROR_FLOOR:g} (the exact solver's 0 among them) are drawn at "
                  f"{ERROR_FLOOR:g}; log scales", fontsize=10)
+    return _save(plt, fig, path)
+
+
+def _save(plt, fig, path: Path) -> Path:
+    """Lay out, write as PNG and close a figure; returns its path."""
     fig.tight_layout()
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
@@ -108,10 +113,7 @@ def polygon_grid(results: dict, path: Path) -> Path:
         ax.set_title(f"polygon method: {title} against n", fontsize=10)
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, path)
 
 
 def figure2_tilt(results: dict, path: Path) -> Path:
@@ -138,10 +140,7 @@ def figure2_tilt(results: dict, path: Path) -> Path:
                      f"{ERROR_FLOOR:g} drawn at the bottom)", fontsize=9)
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, path)
 
 
 def write_all(results: dict, out: Path) -> list[Path]:
