@@ -7,9 +7,10 @@ does so only lazily, inside the subcommand that needs them: `impactnet contact` 
 runtime-only install, and `--help` must be instant. Nothing heavy (not even numpy) is imported at
 module level.
 
-Implemented: `serve`, `datagen`, `bench`, `reproduce-paper` (delegated to the modules named
-in `_DELEGATED`) and `contact` (one exact box-box contact, printed as JSON). The other
-subcommands say which issue brings them and exit with status 2.
+Implemented: `serve`, `datagen`, `train`, `sweep`, `evaluate`, `bench`, `reproduce-paper`
+(delegated to the modules named in `_DELEGATED`) and `contact` (one exact box-box contact,
+printed as JSON). A subcommand listed in `_PENDING` would say which issue brings it and exit
+with status 2.
 """
 from __future__ import annotations
 
@@ -24,8 +25,6 @@ EXIT_NOT_IMPLEMENTED = 2
 
 # Which issue brings each subcommand that does not exist yet.
 _PENDING = {
-    "sweep": "issue 6, 'Retraining jobs and sweeps'",
-    "evaluate": "issue 4, 'The learned predictors'",
 }
 
 # Default pair of `impactnet contact`: the paper's cubes (edge 2 m); B rests on A's top face,
@@ -132,6 +131,12 @@ _DELEGATED = {
               "solver against python-fcl)"),
     "train": ("training.train_cli",
               "train the learned predictors of a scene's pairs into a bundle"),
+    "evaluate": ("training.evaluate_cli",
+                 "measure every predictor of a bundle on a held-out test set against the goals "
+                 "of issue 4 (Markdown report, JSON, PNG plots)"),
+    "sweep": ("training.sweep_cli",
+              "multi-objective hyper-parameter sweep with Optuna (error against measured cost; "
+              "SQLite or PostgreSQL storage, resumable by name)"),
     "reproduce-paper": ("training.reproduce_paper_cli",
                         "reproduce the paper's Tables 1 and 2 and Figures 5 and 6"),
 }
@@ -162,8 +167,6 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     for name, help_text in [
-        ("sweep", "hyper-parameter sweep with Optuna (not implemented yet)"),
-        ("evaluate", "evaluate a bundle on a held-out set (not implemented yet)"),
     ]:
         p = sub.add_parser(name, help=help_text, description=help_text)
         p.set_defaults(handler=_not_implemented(name))

@@ -5,8 +5,9 @@ A bundle is a folder holding exactly ``manifest.json`` and the files the manifes
 the manifest's format and version, that the folder holds no other file and misses none,
 every file's size and SHA-256, the tensors (float32, each belonging to a declared MLP, every
 declared MLP complete with the declared shapes) and the pairs (every MLP they name exists,
-with the input / output widths its role needs; the classifier's regions start with "none"
-and each other region has a committee). Anything else raises :class:`BundleError`. Tensors
+with the input / output widths its role needs; the region classifier is the exact labeller
+:data:`models.canonical.REGION_LABELLER`, its regions start with "none" and each other region
+has a committee). Anything else raises :class:`BundleError`. Tensors
 are read with ``safetensors.numpy`` from the same bytes that were hashed; nothing is pickled.
 
 Writing (:func:`write_bundle`) checks the same rules first, so an unreadable bundle is never
@@ -34,7 +35,7 @@ from models import canonical as cn
 from models.mlp import MLP, MLPError, MLPSpec
 
 FORMAT = "impactnet-bundle"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: the region classifier is the exact labeller (no classifier MLP)
 MANIFEST = "manifest.json"
 WEIGHTS = "weights.safetensors"
 _AUTO_KEYS = ("confidence_min", "normal_spread_max_deg", "point_spread_max", "depth_margin")
@@ -48,7 +49,7 @@ class BundleError(ValueError):
 class AutoThresholds:
     """When ``auto`` hands a row to the exact solver (calibrated by training, per pair)."""
 
-    confidence_min: float  # classifier probability below this -> exact
+    confidence_min: float  # confidence below this -> exact (1 in a region with a committee)
     normal_spread_max_deg: float  # max angle between member normals above this (deg) -> exact
     point_spread_max: float  # max member point distance above this (fraction of e) -> exact
     depth_margin: float  # predicted depth outside the scene's range by more (fraction of e)
@@ -63,8 +64,8 @@ class PairModels:
     size_b: tuple[float, float, float]  # full edge lengths of B, metres
     depth_fraction: tuple[float, float]  # trained depth range, fractions of the shortest edge
     single: str | None  # MLP name of the single predictor, or None
-    classifier: str | None  # MLP name of the region classifier, or None
-    regions: tuple[str, ...]  # the classifier's classes; regions[0] == "none"
+    labeller: str | None  # the region classifier (REGION_LABELLER), None: no committee
+    regions: tuple[str, ...]  # the regions with a committee; regions[0] == "none"
     experts: dict[str, tuple[str, ...]] = field(default_factory=dict)  # region -> MLP names
     auto: AutoThresholds | None = None  # fallback thresholds of auto, or None
 
@@ -96,9 +97,9 @@ def _numbers(value, count: int, what: str) -> tuple[float, ...]:
 
 
 def _check_mlp(name, mlps: dict[str, MLP], what: str, n_out: int | None,
-               regression: bool = True) -> str:
-    """``name`` if it is a declared MLP taking pose-v1 (and giving ``n_out`` outputs; a
-    regression network must declare contact-v1 outputs, a classifier names its own)."""
+               outputs: str = cn.OUTPUTS_VERSION) -> str:
+    """``name`` if it is a declared MLP taking pose-v1 and giving ``n_out`` outputs of the
+    version ``outputs``."""
     if not isinstance(name, str) or name not in mlps:
         raise BundleError(f"{what}: no MLP {name!r} in the bundle")
     spec = mlps[name].spec
@@ -107,8 +108,8 @@ def _check_mlp(name, mlps: dict[str, MLP], what: str, n_out: int | None,
                           f"({cn.N_POSE_FEATURES} inputs)")
     if n_out is not None and spec.layers[-1] != n_out:
         raise BundleError(f"{what}: MLP {name!r} has {spec.layers[-1]} outputs, needs {n_out}")
-    if regression and spec.outputs != cn.OUTPUTS_VERSION:
-        raise BundleError(f"{what}: MLP {name!r} must give {cn.OUTPUTS_VERSION}")
+    if spec.outputs != outputs:
+        raise BundleError(f"{what}: MLP {name!r} must give {outputs}")
     return name
 
 
@@ -128,9 +129,9 @@ def _pair_models(key: str, entry, mlps: dict[str, MLP]) -> PairModels:
     single = entry.get("single")
     if single is not None:
         _check_mlp(single, mlps, f"{where}.single", cn.N_CONTACT_OUTPUTS)
-    classifier, regions, experts = None, (), {}
+    labeller, regions, experts = None, (), {}
     if entry.get("classifier") is not None:
-        classifier, regions, experts = _committee(entry, mlps, where)
+        labeller, regions, experts = _committee(entry, mlps, where)
     auto = entry.get("auto")
     if auto is not None:
         if not isinstance(auto, dict) or set(auto) != set(_AUTO_KEYS):
@@ -139,14 +140,17 @@ def _pair_models(key: str, entry, mlps: dict[str, MLP]) -> PairModels:
         if not 0.0 <= values[0] <= 1.0 or min(values[1:]) < 0.0:
             raise BundleError(f"{where}.auto: confidence_min in [0, 1], the others >= 0")
         auto = AutoThresholds(*values)
-    return PairModels(key, size_a, size_b, depth, single, classifier, regions, experts, auto)
+    return PairModels(key, size_a, size_b, depth, single, labeller, regions, experts, auto)
 
 
 def _committee(entry: dict, mlps: dict[str, MLP], where: str):
-    """(classifier name, regions, experts) of a pair entry, validated."""
+    """(labeller, regions, experts) of a pair entry, validated."""
     block = entry["classifier"]
-    if not isinstance(block, dict) or set(block) != {"mlp", "regions"}:
-        raise BundleError(f"{where}.classifier: expected {{'mlp', 'regions'}}")
+    if not isinstance(block, dict) or set(block) != {"labeller", "regions"}:
+        raise BundleError(f"{where}.classifier: expected {{'labeller', 'regions'}}")
+    if block["labeller"] != cn.REGION_LABELLER:
+        raise BundleError(f"{where}.classifier.labeller: {block['labeller']!r} is not "
+                          f"{cn.REGION_LABELLER!r}")
     regions = block["regions"]
     if (not isinstance(regions, list) or not regions or regions[0] != cn.NONE_KEY
             or len(set(regions)) != len(regions)):
@@ -156,8 +160,6 @@ def _committee(entry: dict, mlps: dict[str, MLP], where: str):
             cn.parse_region_key(region)
         except ValueError as exc:
             raise BundleError(f"{where}.classifier.regions: {exc}") from None
-    name = _check_mlp(block["mlp"], mlps, f"{where}.classifier", len(regions),
-                      regression=False)
     experts = entry.get("experts")
     if not isinstance(experts, dict) or set(experts) != set(regions[1:]):
         raise BundleError(f"{where}.experts: need one committee per region except 'none'")
@@ -166,8 +168,9 @@ def _committee(entry: dict, mlps: dict[str, MLP], where: str):
         if not isinstance(names, list) or not names:
             raise BundleError(f"{where}.experts[{region!r}]: a non-empty list of MLP names")
         out[region] = tuple(_check_mlp(m, mlps, f"{where}.experts[{region!r}]",
-                                       cn.N_CONTACT_OUTPUTS) for m in names)
-    return name, tuple(regions), out
+                                       cn.N_CONTACT_OUTPUTS, cn.EXPERT_OUTPUTS_VERSION)
+                            for m in names)
+    return cn.REGION_LABELLER, tuple(regions), out
 
 
 def _assemble(manifest, tensors: dict[str, np.ndarray]) -> tuple[dict, dict]:

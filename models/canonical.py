@@ -37,6 +37,12 @@ from models.exact import CHUNK_ROWS, prepare_inputs
 FEATURES_VERSION = "pose-v1"
 #: Name of the regression output layout (``mlps.<m>.outputs``).
 OUTPUTS_VERSION = "contact-v1"
+#: The committee's region classifier: the exact solver's separating-axis test and incident
+#: feature, without the clipping (:mod:`models.region_label`), named in the bundle.
+REGION_LABELLER = "exact-sat-v1"
+#: Outputs of the committee's experts: ``contact-v1`` whose point is the residual of the
+#: contact point from the labeller's unclipped point (canonical A frame, / L).
+EXPERT_OUTPUTS_VERSION = "contact-residual-v1"
 N_POSE_FEATURES = 12
 N_CONTACT_OUTPUTS = 7
 #: Region key of separated pairs (the classifier's first class).

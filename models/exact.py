@@ -49,8 +49,6 @@ CHUNK_ROWS = 12288
 _WIDTHS = (3, 3, 4, 3, 3, 4)
 _NAMES = ("size_a", "position_a", "quaternion_a", "size_b", "position_b", "quaternion_b")
 _XYZ = np.arange(3)[:, None]  # component offsets, to scatter (3, k) columns into (n, 3) rows
-_FACE_REF_CODES = np.array([0, ct.FACE_VERTEX, ct.FACE_EDGE, ct.FACE_FACE], np.int8)
-_FACE_INC_CODES = np.array([0, ct.VERTEX_FACE, ct.EDGE_FACE, ct.FACE_FACE], np.int8)
 
 
 class InvalidBoxError(ValueError):
@@ -105,7 +103,7 @@ def _in_domain(rows) -> bool:
     return sizes_ok and all((np.abs(r) <= POSITION_MAX_M).all() for r in (rows[1], rows[4]))
 
 
-def _unit_quaternions(q: np.ndarray):
+def unit_quaternions(q: np.ndarray):
     """Rows of q (n, 4) divided by their norm, summed as the scalar path does; None if any
     norm is below the minimum."""
     square = q * q
@@ -139,7 +137,7 @@ def prepare_inputs(size_a, position_a, quaternion_a, size_b, position_b, quatern
         return _checked_inputs(values)
     n = lengths.pop() if lengths else 1
     for k in (2, 5):
-        rows[k] = _unit_quaternions(rows[k])
+        rows[k] = unit_quaternions(rows[k])
         if rows[k] is None:
             return _checked_inputs(values)
     return tuple(r if len(r) == n else np.broadcast_to(r, (n, r.shape[1])) for r in rows)
@@ -236,15 +234,12 @@ def _fill_face_rows(out, rows, pose):
         mf.ReferenceFrame(pose, rows, ref_is_b, axis % 3), scale)
     flip = np.flatnonzero(ref_is_b[entry_rows])  # entries in B's frame: map them to A's
     if flip.size:
-        in_b = np.take(pose.data[6:18], rows[entry_rows[flip]], axis=1)  # R (9 rows), t (3)
-        points[:, flip] = in_b[9:] + lf.matvec(in_b[:9], points[:, flip])
+        points[:, flip] = lf.b_to_a(pose, rows[entry_rows[flip]], points[:, flip])
     out["point"][:, rows] = mf.weighted_point(points, depths, entry_rows, len(rows), scale)
     out["face_entries"] = (rows[entry_rows], slots, points, depths)
     out["manifold_count"][rows] = count
-    out["feature_a"][rows] = np.where(ref_is_b, inc_feature, ref_face)
-    out["feature_b"][rows] = np.where(ref_is_b, ref_face, inc_feature)
-    out["contact_type_code"][rows] = np.where(ref_is_b, _FACE_INC_CODES[rank],
-                                              _FACE_REF_CODES[rank])
+    (out["contact_type_code"][rows], out["feature_a"][rows],
+     out["feature_b"][rows]) = mf.face_labels(ref_is_b, inc_feature, rank, ref_face)
 
 
 def _fill_edge_rows(out, rows, pose):

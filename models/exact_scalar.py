@@ -9,14 +9,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from models import box_features as bf
 from models import contacts as ct
-from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from models.manifold import QUAD_SIGNS, SNAP_TOL_REL, WEIGHT_FLOOR_REL
-from models.rotations import QUATERNION_MIN_NORM
 from models.sat import CONTACT_TOL_REL, EDGE_SKEW_TOL_REL, TIE_TOL_REL
+from models.scalar_inputs import single_pair  # noqa: F401  (re-exported: the N = 1 entry)
 
 _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]
 _FACE_REF_CODES = (0, ct.FACE_VERTEX, ct.FACE_EDGE, ct.FACE_FACE)
@@ -24,11 +21,11 @@ _FACE_INC_CODES = (0, ct.VERTEX_FACE, ct.EDGE_FACE, ct.FACE_FACE)
 _PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
 
 
-def _sgn(x: float) -> float:
+def sgn(x: float) -> float:
     return 1.0 if x >= 0.0 else -1.0
 
 
-def _dot(a, b) -> float:
+def dot(a, b) -> float:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
@@ -40,7 +37,7 @@ def _quat_matrix(q):
             (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)))
 
 
-def _overlaps(ha, hb, rot, t, scale):
+def overlaps(ha, hb, rot, t, scale):
     """Overlap along the 15 axes and the unit axes, as in :func:`models.sat.overlap_columns`."""
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rot
     a0, a1, a2 = ha
@@ -84,7 +81,7 @@ def _overlaps(ha, hb, rot, t, scale):
     return over, axes
 
 
-def _choose_axis(over, scale):
+def choose_axis(over, scale):
     """Colliding flag and axis, with the tie rule of :func:`models.sat.choose_axis`."""
     tie = TIE_TOL_REL * scale
     face_min = min(over[:6])
@@ -145,7 +142,7 @@ def _clip(quad, depth, half_u, half_w, tol):
     return out
 
 
-def _incident_feature(depth, signs, face, tol):
+def incident_feature(depth, signs, face, tol):
     """Incident feature id and rank (1 vertex, 2 edge, 3 face), as in models.manifold."""
     order = sorted(range(4), key=lambda m: -depth[m])
     deepest, second = signs[order[0]], signs[order[1]]
@@ -160,13 +157,14 @@ def _incident_feature(depth, signs, face, tol):
                 + (deepest[2] < 0)), 1
 
 
-def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
-    """Manifold (points in the reference frame, depths), incident feature and rank."""
-    tol = SNAP_TOL_REL * scale
-    ref_sign = _sgn(t_ri[ref_axis])
+def incident_face(h_ref, h_inc, rot_ri, t_ri, ref_axis):
+    """The incident face seen from the reference box: ``(ref_sign, vertices, signs, depth,
+    face)``: side of the reference face, the 4 quad vertices (reference frame), their sign
+    vectors in the incident box, their depths below the reference face and the face id."""
+    ref_sign = sgn(t_ri[ref_axis])
     n_inc = [ref_sign * rot_ri[ref_axis][k] for k in range(3)]
     k = max(range(3), key=lambda i: (abs(n_inc[i]), -i))
-    side = -_sgn(n_inc[k])
+    side = -sgn(n_inc[k])
     p, q = (k + 1) % 3, (k + 2) % 3
     col = [(rot_ri[0][j], rot_ri[1][j], rot_ri[2][j]) for j in range(3)]
     centre = [t_ri[c] + side * h_inc[k] * col[k][c] for c in range(3)]
@@ -177,9 +175,16 @@ def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
         sign = [0.0, 0.0, 0.0]
         sign[k], sign[p], sign[q] = side, a, b
         signs.append(sign)
+    depth = [h_ref[ref_axis] - ref_sign * v[ref_axis] for v in vertices]
+    return ref_sign, vertices, signs, depth, bf.FACE_BASE + 2 * k + (side < 0)
+
+
+def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
+    """Manifold (points in the reference frame, depths), incident feature and rank."""
+    tol = SNAP_TOL_REL * scale
+    ref_sign, vertices, signs, depth, face = incident_face(h_ref, h_inc, rot_ri, t_ri, ref_axis)
     u, w = (ref_axis + 1) % 3, (ref_axis + 2) % 3
     height = h_ref[ref_axis]
-    depth = [height - ref_sign * v[ref_axis] for v in vertices]
     quad = [(v[u], v[w]) for v in vertices]
     candidates = _clip(quad, depth, h_ref[u], h_ref[w], tol)
     candidates.sort(key=lambda c: -c[2])  # stable, as the vectorised argsort
@@ -189,28 +194,27 @@ def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
         point[ref_axis] = ref_sign * height - ref_sign * 0.5 * d
         point[u], point[w] = cu, cw
         points.append((point, d))
-    face = bf.FACE_BASE + 2 * k + (side < 0)
-    feature, rank = _incident_feature(depth, signs, face, tol)
+    feature, rank = incident_feature(depth, signs, face, tol)
     return points, feature, rank, bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0)
 
 
-def _edge_contact(ha, hb, rot, t, normal, axis):
+def edge_contact(ha, hb, rot, t, normal, axis):
     """Mid-point of the supporting edges' closest points and the two edge ids."""
     i, j = (axis - 6) // 3, (axis - 6) % 3
-    sign_a = [_sgn(v) for v in normal]
+    sign_a = [sgn(v) for v in normal]
     centre_a = [0.0 if k == i else ha[k] * sign_a[k] for k in range(3)]
     cols = [(rot[0][c], rot[1][c], rot[2][c]) for c in range(3)]
-    sign_b = [-_sgn(_dot(cols[k], normal)) for k in range(3)]
+    sign_b = [-sgn(dot(cols[k], normal)) for k in range(3)]
     local_b = [0.0 if k == j else hb[k] * sign_b[k] for k in range(3)]
-    centre_b = [t[r] + _dot(rot[r], local_b) for r in range(3)]
+    centre_b = [t[r] + dot(rot[r], local_b) for r in range(3)]
     dir_a = [1.0 if k == i else 0.0 for k in range(3)]
     dir_b = cols[j]
     offset = [centre_b[k] - centre_a[k] for k in range(3)]
     cos = dir_b[i]
     cx = (dir_a[1] * dir_b[2] - dir_a[2] * dir_b[1], dir_a[2] * dir_b[0] - dir_a[0] * dir_b[2],
           dir_a[0] * dir_b[1] - dir_a[1] * dir_b[0])
-    sine2 = _dot(cx, cx)
-    proj_a, proj_b = offset[i], _dot(offset, dir_b)
+    sine2 = dot(cx, cx)
+    proj_a, proj_b = offset[i], dot(offset, dir_b)
     safe = sine2 if sine2 > 0 else 1.0
     s = min(max((proj_a - cos * proj_b) / safe, -ha[i]), ha[i])
     r = min(max((cos * proj_a - proj_b) / safe, -hb[j]), hb[j])
@@ -223,68 +227,24 @@ def _edge_contact(ha, hb, rot, t, normal, axis):
     return point, edge(i, sign_a), edge(j, sign_b)
 
 
-def _unit_quaternion(value):
-    """A finite quaternion list normalised, or None if its norm is below the minimum."""
-    norm = math.sqrt(sum(v * v for v in value))
-    return [v / norm for v in value] if norm >= QUATERNION_MIN_NORM else None
-
-
-def _flat_floats(value):
-    """A vector as a list of floats: lists and 1-D arrays directly, anything else via NumPy."""
-    if type(value) is list and all(type(v) is float for v in value):
-        return value
-    if type(value) is np.ndarray and value.ndim == 1 and value.dtype == np.float64:
-        return value.tolist()
-    try:
-        return np.asarray(value, dtype=np.float64).reshape(-1).tolist()
-    except (TypeError, ValueError):
-        return None
-
-
-def single_pair(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b):
-    """The six inputs of one pair as validated float lists, or None.
-
-    None means "not a single valid pair": the caller then takes the vectorised path, which
-    broadcasts, validates and raises the precise error.
-    """
-    values = []
-    for value, width in ((size_a, 3), (position_a, 3), (quaternion_a, 4), (size_b, 3),
-                         (position_b, 3), (quaternion_b, 4)):
-        row = _flat_floats(value)
-        if row is None or len(row) != width or not all(math.isfinite(v) for v in row):
-            return None
-        values.append(row)
-    for sizes in (values[0], values[3]):
-        if not (min(sizes) >= SIZE_MIN_M and max(sizes) <= SIZE_MAX_M):
-            return None
-    for position in (values[1], values[4]):
-        if max(abs(v) for v in position) > POSITION_MAX_M:
-            return None
-    values[2], values[5] = _unit_quaternion(values[2]), _unit_quaternion(values[5])
-    return None if values[2] is None or values[5] is None else values
-
-
 def _transpose(m):
     return tuple(tuple(m[r][c] for r in range(3)) for c in range(3))
 
 
-def _apply(m, v):
-    return [_dot(m[0], v), _dot(m[1], v), _dot(m[2], v)]
+def apply(m, v):
+    return [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
 
 
-def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b):
-    """Exact contact of one validated pair; returns a one-row `Contacts`.
-
-    Parameters are lists of floats, already validated: sizes (3,) > 0, positions (3,), unit
-    quaternions (4,) (w, x, y, z); see :func:`single_pair`.
-    """
+def relative_frame(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b):
+    """``(ha, hb, R, t, R_A)`` of one validated pair: half-extents, B's rotation and centre
+    in A's frame (``R = R_A^T R_B``, ``t = R_A^T (p_B - p_A)``) and A's rotation (rows)."""
     ha = [0.5 * v for v in size_a]
     hb = [0.5 * v for v in size_b]
     pa, pb = position_a, position_b
     rot_a, rot_b = _quat_matrix(quaternion_a), _quat_matrix(quaternion_b)
     (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = rot_a
     (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = rot_b
-    # R = R_A^T R_B and t = R_A^T (p_B - p_A), each sum in the order of the batch path.
+    # Each sum in the order of the batch path.
     rot = ((a00 * b00 + a10 * b10 + a20 * b20, a00 * b01 + a10 * b11 + a20 * b21,
             a00 * b02 + a10 * b12 + a20 * b22),
            (a01 * b00 + a11 * b10 + a21 * b20, a01 * b01 + a11 * b11 + a21 * b21,
@@ -294,11 +254,22 @@ def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion
     d0, d1, d2 = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
     t = [a00 * d0 + a10 * d1 + a20 * d2, a01 * d0 + a11 * d1 + a21 * d2,
          a02 * d0 + a12 * d1 + a22 * d2]
+    return ha, hb, rot, t, rot_a
+
+
+def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b):
+    """Exact contact of one validated pair; returns a one-row `Contacts`.
+
+    Parameters are lists of floats, already validated: sizes (3,) > 0, positions (3,), unit
+    quaternions (4,) (w, x, y, z); see :func:`single_pair`.
+    """
+    ha, hb, rot, t, rot_a = relative_frame(size_a, position_a, quaternion_a, size_b,
+                                           position_b, quaternion_b)
     scale = max(ha) + max(hb)
-    over, axes = _overlaps(ha, hb, rot, t, scale)
-    colliding, axis = _choose_axis(over, scale)
+    over, axes = overlaps(ha, hb, rot, t, scale)
+    colliding, axis = choose_axis(over, scale)
     u = axes[axis]
-    normal = [v * _sgn(_dot(u, t)) for v in u]
+    normal = [v * sgn(dot(u, t)) for v in u]
     depth = max(over[axis], 0.0) if colliding else 0.0
     code, feature_a, feature_b = ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE
     manifold = []
@@ -306,22 +277,28 @@ def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion
     if colliding and axis < 6:
         manifold, point, code, feature_a, feature_b = _face_rows(ha, hb, rot, t, axis, scale)
     elif colliding:
-        point, feature_a, feature_b = _edge_contact(ha, hb, rot, t, normal, axis)
+        point, feature_a, feature_b = edge_contact(ha, hb, rot, t, normal, axis)
         manifold, code = [(point, depth)], ct.EDGE_EDGE
     return _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, manifold,
-                   rot_a, pa, pb)
+                   rot_a, position_a, position_b)
+
+
+def reference_view(ha, hb, rot, t, axis):
+    """``(h_ref, h_inc, R_ri, t_ri)``: the incident box seen from the reference box of a face
+    axis (A's for axes 0-2, B's for 3-5)."""
+    if axis < 3:
+        return ha, hb, rot, t
+    rot_t = _transpose(rot)
+    return hb, ha, rot_t, [-v for v in apply(rot_t, t)]
 
 
 def _face_rows(ha, hb, rot, t, axis, scale):
     """Face-axis contact of one pair: manifold and point in A's frame, type and features."""
     ref_is_b = axis >= 3
+    points, inc, rank, ref_face = _face_contact(*reference_view(ha, hb, rot, t, axis),
+                                                axis % 3, scale)
     if ref_is_b:
-        rot_t = _transpose(rot)
-        points, inc, rank, ref_face = _face_contact(hb, ha, rot_t, [-v for v in _apply(rot_t, t)],
-                                                    axis % 3, scale)
-        points = [([t[r] + _dot(rot[r], p) for r in range(3)], d) for p, d in points]
-    else:
-        points, inc, rank, ref_face = _face_contact(ha, hb, rot, t, axis % 3, scale)
+        points = [([t[r] + dot(rot[r], p) for r in range(3)], d) for p, d in points]
     floor = WEIGHT_FLOOR_REL * scale
     weights = [max(d, 0.0) + floor for _, d in points]
     total = sum(weights)
@@ -341,10 +318,10 @@ def _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, m
     if point is None:
         world_point = [0.5 * (pa[k] + pb[k]) for k in range(3)]
     else:
-        world_point = [pa[r] + _dot(rot_a[r], point) for r in range(3)]
-    floats = _apply(rot_a, normal) + world_point + [depth]
+        world_point = [pa[r] + dot(rot_a[r], point) for r in range(3)]
+    floats = apply(rot_a, normal) + world_point + [depth]
     for p, d in manifold:
-        floats.extend([pa[r] + _dot(rot_a[r], p) for r in range(3)])
+        floats.extend([pa[r] + dot(rot_a[r], p) for r in range(3)])
     floats.extend(_PADDING[: 3 * (ct.MAX_MANIFOLD_POINTS - len(manifold))])
     floats.extend([d for _, d in manifold])
     floats.extend(_PADDING[: ct.MAX_MANIFOLD_POINTS - len(manifold)])

@@ -11,21 +11,23 @@ committee's spread. Stages of a call:
    flipped back. Unsupported rows raise :class:`UnsupportedPairError` in ``single`` and
    ``committee`` (before any work) and go to the exact solver in ``auto``.
 3. Per group, in blocks of ``ROW_BLOCK`` rows: canonical features, then ``single``'s MLP, or
-   the classifier. ``committee`` then sorts the group's rows by region and runs each
+   the region classifier (:mod:`models.region_label`, the exact solver's decision without
+   the clipping). ``committee`` then sorts the group's rows by region and runs each
    region's committee once on all its rows (a loop over regions), and a second block pass
-   maps the canonical answers to the world.
-4. ``auto``: rows whose confidence, spread or depth fail the pair's thresholds, and the
-   unsupported rows, are solved by :func:`models.exact.box_box` in one call.
+   maps the canonical points to the world.
+4. The exact solver answers, in one call (:func:`models.exact.box_box`), the rows whose
+   region has no committee and, in ``auto``, the rows whose confidence, spread or depth fail
+   the pair's thresholds and the unsupported rows.
 
 Fields of a learned answer: ``single`` predicts no contact type, so its rows have
 ``colliding`` True, ``contact_type_code`` 0 and features / axis -1 (not predicted), and
 confidence 1 inside the trained depth domain, 0 outside it (it has no uncertainty
-estimate). ``committee`` fills type, features and axis from the region (mapped back through
-S and T); confidence is the classifier's probability, 0 where the predicted depth leaves the
-domain; a predicted "none" is a separated row (point: the centres' midpoint, normal: the
-centre line, depth 0). The manifold of a learned contact is its point (count 1). The
-manifold arrays are (n, 8, 3) and (n, 8) views of slot-major (8, n, ...) arrays, so that
-only the slot in use is written.
+estimate). ``committee`` takes colliding, type, features, axis, normal and depth from the
+region classifier (they equal the exact solver's) and the point from the experts;
+confidence is 1, 0 where the depth leaves the trained domain; a separated row is answered
+as the exact solver answers it (point: the centres' midpoint). The manifold of a learned
+contact is its point (count 1). The manifold arrays are (n, 8, 3) and (n, 8) views of
+slot-major (8, n, ...) arrays, so that only the slot in use is written.
 """
 from __future__ import annotations
 
@@ -38,11 +40,9 @@ from models.canonical import FALLBACK_NORMAL, FLIP_FEATURES, N_POSE_FEATURES
 from models.exact import box_box
 from models.learned_one import Prediction, one_pair, predict_one
 from models.pair_dispatch import UNSUPPORTED, PairTable, UnsupportedPairError, groups, unswap
-from models.pair_runtime import PairRuntime, decide, member_stats
+from models.pair_runtime import PairRuntime, member_stats
+from models.region_label import input_block, label_block
 
-#: Rows per classifier call: the logits (rows x R float32, 1 MB at R = 128) stay in the L2
-#: cache for the three passes of the decision (argmax, exp, sum).
-CLASSIFY_CHUNK = 2048
 _FIELDS = ("colliding", "normal", "depth", "point", "contact_type_code", "feature_a",
            "feature_b", "axis", "manifold_count", "confidence", "predictor", "normal_spread",
            "point_spread", "unsure")
@@ -158,8 +158,7 @@ class LearnedPredictor:
                 unswap_output(part)
             if rows is not None:
                 out.put(rows, part)
-        if self.mode == "auto":
-            _exact_fallback(out, inputs)
+        _exact_fallback(out, inputs)  # auto's unsure rows, the committee's unknown regions
         return out.prediction()
 
     def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool) -> None:
@@ -177,7 +176,7 @@ def unswap_output(out: Output) -> None:
 
 
 def _exact_fallback(out: Output, inputs: pc.Inputs) -> None:
-    """``auto``: the exact solver answers the unsure rows, in one vectorised call."""
+    """The exact solver answers the unsure rows, in one vectorised call."""
     rows = np.flatnonzero(out.unsure)
     if rows.size:
         out.put_exact(rows, box_box(*(a[rows] for a in inputs.full())))
@@ -199,8 +198,8 @@ class SinglePredictor(LearnedPredictor):
                                        x[:, :N_POSE_FEATURES])
             pair.single.forward_augmented(x, out=y)
             columns = np.ascontiguousarray(y.T)
-            pc.world_block(columns, frame, inputs, start, stop, pair.scale,
-                           out.point[start:stop], out.normal[start:stop])
+            pc.world_block(columns, frame, pc.block_rows(inputs.position_a, start, stop),
+                           pair.scale, out.point[start:stop], out.normal[start:stop])
             _depth(pair, columns[6], out.depth[start:stop])
             np.copyto(out.confidence[start:stop], pair.in_domain(columns[6]))
         out.finish_learned(self.mode)
@@ -224,7 +223,7 @@ _NONE_OUTPUT = np.array([0, 0, 0, *FALLBACK_NORMAL, 0], np.float32)
 
 
 class CommitteePredictor(LearnedPredictor):
-    """Classifier -> region -> the region's committee, averaged; confidence and spread."""
+    """Exact region labels -> the region's committee, averaged; confidence and spread."""
 
     mode = "committee"
 
@@ -232,40 +231,32 @@ class CommitteePredictor(LearnedPredictor):
         n = inputs.n
         features = _augmented_features(n)
         region = np.empty(n, np.int16)
+        unclipped = np.empty((n, 3))  # the labeller's point before clipping, world, metres
         frames = []
         for start in range(0, n, pc.ROW_BLOCK):
             stop = min(n, start + pc.ROW_BLOCK)
-            frames.append(pc.canonical_block(inputs, start, stop, pair.inv_scale,
-                                             features[start:stop, :N_POSE_FEATURES]))
-            for sub in range(start, stop, CLASSIFY_CHUNK):
-                end = min(stop, sub + CLASSIFY_CHUNK)
-                region[sub:end], out.confidence[sub:end] = decide(
-                    pair.classifier.forward_augmented(features[sub:end]))
+            frame = pc.canonical_block(inputs, start, stop, pair.inv_scale,
+                                       features[start:stop, :N_POSE_FEATURES])
+            frames.append(frame)
+            labels = label_block(input_block(inputs, start, stop))
+            region[start:stop] = _put_labels(pair, labels, frame, out, slice(start, stop))
+            unclipped[start:stop] = labels.unclipped.T
+        unknown = region < 0  # a region without a committee: the exact solver answers
+        np.maximum(region, 0, out=region)
         outputs = self._experts(pair, features, region, out, spread or self.mode == "auto")
+        scratch = np.empty((min(n, pc.ROW_BLOCK), 3))  # the experts' normals, not used
         for start, frame in zip(range(0, n, pc.ROW_BLOCK), frames):
             stop = min(n, start + pc.ROW_BLOCK)
-            pc.world_block(outputs[:, start:stop], frame, inputs, start, stop, pair.scale,
-                           out.point[start:stop], out.normal[start:stop])
-        _depth(pair, outputs[6], out.depth)
-        self._labels(pair, region, frames, out)
-        outside = out.colliding & ~pair.in_domain(outputs[6])
-        out.confidence[outside] = 0.0
-        _separated(out, inputs, np.flatnonzero(region == 0))
+            pc.world_block(outputs[:, start:stop], frame, unclipped[start:stop], pair.scale,
+                           out.point[start:stop], scratch[:stop - start])
+        out.confidence[:] = 1.0
+        out.confidence[out.colliding & ~pair.in_domain(out.depth / pair.edge)] = 0.0
+        _separated(out, inputs, np.flatnonzero(~out.colliding))
         if self.mode == "auto":
             out.unsure |= pair.unsure(out.confidence, out.normal_spread, out.point_spread,
-                                      outputs[6], out.colliding)
+                                      out.depth / pair.edge, out.colliding)
         out.finish_learned("committee")
-
-    @staticmethod
-    def _labels(pair: PairRuntime, region, frames, out: Output) -> None:
-        """Colliding flag, type, axis and features of the regions, mapped back by S, T."""
-        flip_a = np.concatenate([f.flip_a for f in frames])
-        flip_b = np.concatenate([f.flip_b for f in frames])
-        np.not_equal(region, 0, out=out.colliding)
-        out.contact_type_code[:] = pair.region_code[region]
-        out.axis[:] = pair.region_axis[region]
-        out.feature_a[:] = FLIP_FEATURES[flip_a, pair.region_fa[region]]
-        out.feature_b[:] = FLIP_FEATURES[flip_b, pair.region_fb[region]]
+        out.unsure |= unknown
 
     @staticmethod
     def _experts(pair: PairRuntime, features, region, out: Output, spread: bool) -> np.ndarray:
@@ -302,18 +293,27 @@ class CommitteePredictor(LearnedPredictor):
         return np.take(outputs, inverse, axis=1)
 
 
+def _put_labels(pair: PairRuntime, labels, frame, out: Output, rows: slice) -> np.ndarray:
+    """The exact labels of a block into ``out[rows]``; returns the canonical region of each
+    row (``pair.region_of``: -1 where the region has no committee; 0, whose outputs are a zero
+    residual, for separated and edge-edge rows, whose unclipped point is exact)."""
+    out.colliding[rows], out.axis[rows], out.depth[rows] = (labels.colliding, labels.axis,
+                                                            labels.depth)
+    out.normal[rows] = labels.normal.T
+    out.contact_type_code[rows] = labels.code
+    out.feature_a[rows], out.feature_b[rows] = labels.feature_a, labels.feature_b
+    region = pair.region_of(labels.code, FLIP_FEATURES[frame.flip_a, labels.feature_a],
+                            FLIP_FEATURES[frame.flip_b, labels.feature_b])
+    region[labels.code == ct.EDGE_EDGE] = 0  # exact point: no committee, residual 0
+    return region
+
+
 def _separated(out: Output, inputs: pc.Inputs, rows: np.ndarray) -> None:
-    """Predicted "none": centres' midpoint, normal along the centre line, depth 0."""
-    if not rows.size:
-        return
-    pa, pb = inputs.position_a, inputs.position_b
-    pa, pb = (pa if len(pa) == 1 else pa[rows]), (pb if len(pb) == 1 else pb[rows])
-    line = pb - pa
-    length = np.sqrt(np.einsum("ij,ij->i", line, line))[:, None]
-    out.normal[rows] = np.where(length > 0, line / np.where(length > 0, length, 1.0),
-                                [0.0, 0.0, 1.0])
-    out.point[rows] = 0.5 * (pa + pb)
-    out.depth[rows] = 0.0
+    """Separated rows: the point is the centres' midpoint (as the exact solver's)."""
+    if rows.size:
+        pa, pb = inputs.position_a, inputs.position_b
+        pa, pb = (pa if len(pa) == 1 else pa[rows]), (pb if len(pb) == 1 else pb[rows])
+        out.point[rows] = 0.5 * (pa + pb)
 
 
 class AutoPredictor(CommitteePredictor):

@@ -20,6 +20,7 @@ from models.canonical import FALLBACK_NORMAL, FLIP_FEATURES, NORMAL_NORM_MIN
 from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from models.exact_scalar import box_box_one, single_pair
 from models.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UnsupportedPairError
+from models.region_label import label_one
 from models.rotations import QUATERNION_MIN_NORM
 
 _PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
@@ -112,12 +113,17 @@ def _to_world(pair, y, m, pa):
     n0, n1, n2 = y[3], y[4], y[5]
     norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     n0, n1, n2 = _FALLBACK if norm < NORMAL_NORM_MIN else (n0 / norm, n1 / norm, n2 / norm)
-    p0, p1, p2 = y[0] * pair.scale, y[1] * pair.scale, y[2] * pair.scale
     normal = [m[0] * n0 + m[1] * n1 + m[2] * n2, m[3] * n0 + m[4] * n1 + m[5] * n2,
               m[6] * n0 + m[7] * n1 + m[8] * n2]
-    point = [pa[0] + m[0] * p0 + m[1] * p1 + m[2] * p2, pa[1] + m[3] * p0 + m[4] * p1
-             + m[5] * p2, pa[2] + m[6] * p0 + m[7] * p1 + m[8] * p2]
-    return point, normal, max(y[6] * pair.edge, 0.0)
+    return _point_to_world(pair, y, m, pa), normal, max(y[6] * pair.edge, 0.0)
+
+
+def _point_to_world(pair, y, m, pa):
+    """World point of the canonical point / L in ``y[:3]`` relative to ``pa`` (A's position,
+    or the unclipped point for an expert's residual); ``m`` = R_A S."""
+    p0, p1, p2 = y[0] * pair.scale, y[1] * pair.scale, y[2] * pair.scale
+    return [pa[0] + m[0] * p0 + m[1] * p1 + m[2] * p2, pa[1] + m[3] * p0 + m[4] * p1
+            + m[5] * p2, pa[2] + m[6] * p0 + m[7] * p1 + m[8] * p2]
 
 
 def _spread(members, scale):
@@ -158,7 +164,7 @@ def predict_one(predictor, values, spread: bool = True):
         auto = predictor.mode == "auto"
         row, spread = _committee_one(pair, x, to_world, flip_a, flip_b, solved, auto,
                                      spread or auto)
-        if row is None:  # auto: unsure
+        if row is None:  # no committee for the region, or auto: unsure
             return box_box_one(*values), 0.0, 0.0
     if swapped:
         row[1] = [-row[1][0], -row[1][1], -row[1][2]]
@@ -169,32 +175,32 @@ def predict_one(predictor, values, spread: bool = True):
 
 def _committee_one(pair, x, to_world, flip_a, flip_b, solved, auto: bool, spread: bool):
     """(row fields, spread) of the committee for one canonical input ``x`` (12,); row None
-    when ``auto`` hands the pair to the exact solver; the spread only if ``spread``."""
-    logits = pair.classifier.forward_one(x)
-    region = int(logits.argmax())
-    logits -= logits[region]
-    confidence = 1.0 / float(np.dot(np.exp(logits, out=logits), pair.ones_regions))
-    if region == 0:
-        if auto and confidence < pair.auto.confidence_min:
-            return None, None
+    when the exact solver is to answer (a region without a committee; in ``auto``, an
+    unsure answer); the spread only if ``spread``."""
+    colliding, axis, depth, normal, code, fa, fb, unclipped = label_one(solved)
+    if not colliding:
         pa, pb = solved[1], solved[4]
-        line = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]]
-        length = math.sqrt(line[0] * line[0] + line[1] * line[1] + line[2] * line[2])
-        normal = [v / length for v in line] if length > 0 else [0.0, 0.0, 1.0]
         point = [0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])]
-        return [False, normal, 0.0, point, 0, -1, -1, -1, confidence, "committee"], (0.0, 0.0)
+        return [False, normal, 0.0, point, 0, -1, -1, axis, 1.0, "committee"], (0.0, 0.0)
+    inside = pair.depth_lo <= depth / pair.edge <= pair.depth_hi
+    if code == ct.EDGE_EDGE:  # the unclipped point is exact: no committee
+        if auto and not inside:
+            return None, None
+        return [True, normal, depth, unclipped, code, fa, fb, axis, 1.0 if inside else 0.0,
+                "committee"], (0.0, 0.0)
+    region = pair.region_dict.get((code, _FLIP[flip_a][fa], _FLIP[flip_b][fb]))
+    if region is None:
+        return None, None
     members = pair.experts[region].forward_one(x).tolist()
     k = len(members)
     y = [sum(column) / k for column in zip(*members)]
     spread = _spread(members, pair.scale) if spread and k > 1 else (0.0, 0.0)
-    inside = pair.depth_lo <= y[6] <= pair.depth_hi
-    if auto and (not inside or confidence < pair.auto.confidence_min
-                 or spread[0] > pair.spread_normal_max or spread[1] > pair.spread_point_max):
+    if auto and (not inside or spread[0] > pair.spread_normal_max
+                 or spread[1] > pair.spread_point_max):
         return None, None
-    point, normal, depth = _to_world(pair, y, to_world, solved[1])
-    code, fa, fb, axis = pair.region_rows[region]
-    return [True, normal, depth, point, code, _FLIP[flip_a][fa], _FLIP[flip_b][fb], axis,
-            confidence if inside else 0.0, "committee"], spread
+    point = _point_to_world(pair, y, to_world, unclipped)  # the unclipped point + residual
+    return [True, normal, depth, point, code, fa, fb, axis, 1.0 if inside else 0.0,
+            "committee"], spread
 
 
 def _contacts(colliding, normal, depth, point, code, feature_a, feature_b, axis, confidence,

@@ -46,6 +46,13 @@ def matvec(matrix: np.ndarray, v) -> np.ndarray:
     return m[:, 0] * v[0] + m[:, 1] * v[1] + m[:, 2] * v[2]
 
 
+def b_to_a(pose, rows: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Points (3, k) given in B's frame of the pairs ``rows`` (k,) of ``pose`` (a
+    :class:`LocalPose`), in A's frame: ``t + R p``."""
+    in_b = np.take(pose.data[6:18], rows, axis=1)  # R (9 rows), t (3)
+    return in_b[9:] + matvec(in_b[:9], points)
+
+
 def matvec_transposed(matrix, v, out) -> None:
     """``out = matrix.T @ v``, i.e. ``sum_i matrix[i] * v[i]`` in index order.
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from models import box_features as bf
 from models import clip
+from models import contacts as ct
 from models.local_frame import AxisChoice, matvec
 from models.sat import sign_nonnegative
 
@@ -235,12 +236,90 @@ def face_manifold(frame: ReferenceFrame, scale):
                                       tol)
     rows, slots, (u, w, depths), count = clip.manifold_order(candidates)
     normal = np.take(ref_sign * height, rows) - np.take(ref_sign * 0.5, rows) * depths
-    axis = np.take(ref_axis, rows)
-    points = np.empty((3, len(rows)))
-    for c in range(3):  # coordinates (axis, u, w) back to (x, y, z)
-        points[c] = np.where(axis == c, normal, np.where(axis == (c + 2) % 3, u, w))
+    points = from_reference(np.take(ref_axis, rows), normal, u, w)
     feature, rank = incident_feature(depth, k, side, tol)
     return points, depths, rows, slots, count, feature, rank, bf.face_id(ref_axis, ref_sign < 0)
+
+
+def face_features(frame: ReferenceFrame, scale):
+    """The labels of :func:`face_manifold` without the clipping, and an approximate point.
+
+    Returns
+    -------
+    incident_feature, touching_rank, ref_face : ndarray of int, shape (m,)
+        As :func:`face_manifold`'s.
+    unclipped : ndarray, shape (3, m)
+        The point the touching incident vertices (depth >= -tolerance) give when each is
+        clamped into the reference face's rectangle instead of clipped (reference frame,
+        metres): their depth-weighted mean (weights as :func:`weighted_point`'s, depths of
+        the incident face's plane at the clamped points), on the mid-surface. It equals the
+        exact point where nothing is clipped (e.g. a vertex inside the face) and where the
+        incident face is aligned with the reference face (clamping a rectangle's corners into
+        an aligned rectangle gives their intersection's corners); elsewhere it is close, and
+        the committee's experts learn the rest.
+    """
+    tol = SNAP_TOL_REL * scale
+    vertices, ref_sign, k, side = incident_quad(frame)
+    height, half_u, half_w = frame.half_ref()
+    depth = height - ref_sign * vertices[:, 0]
+    feature, rank = incident_feature(depth, k, side, tol)
+    u = np.clip(vertices[:, 1], -half_u, half_u)
+    w = np.clip(vertices[:, 2], -half_w, half_w)
+    clamped = plane_depth(vertices[:, 1], vertices[:, 2], depth, u, w)
+    weight = np.where(depth >= -tol, np.maximum(clamped, 0.0) + WEIGHT_FLOOR_REL * scale, 0.0)
+    total = weight.sum(axis=0)
+    along = ref_sign * height - ref_sign * 0.5 * (weight * clamped).sum(axis=0) / total
+    unclipped = from_reference(frame.ref_axis, along, (weight * u).sum(axis=0) / total,
+                               (weight * w).sum(axis=0) / total)
+    return feature, rank, bf.face_id(frame.ref_axis, ref_sign < 0), unclipped
+
+
+#: Smallest |det| (x the quad's area scale squared, dimensionless) of the incident face's
+#: (u, w) projection for which its depth plane is solved; below it the face stands edge-on
+#: to the reference face and each vertex keeps its own depth.
+PLANE_DET_MIN_REL = 1e-9
+
+
+def plane_depth(quad_u, quad_w, depth, u, w) -> np.ndarray:
+    """Depths (4, m) of the incident face's plane at points (u, w) (4, m), from the quad's
+    vertices (``quad_u``, ``quad_w``, ``depth``, each (4, m)); the vertices' own depths where
+    the face is edge-on (:data:`PLANE_DET_MIN_REL`)."""
+    du1, dw1, dd1 = quad_u[1] - quad_u[0], quad_w[1] - quad_w[0], depth[1] - depth[0]
+    du3, dw3, dd3 = quad_u[3] - quad_u[0], quad_w[3] - quad_w[0], depth[3] - depth[0]
+    det = du1 * dw3 - du3 * dw1
+    size2 = (du1 * du1 + dw1 * dw1) * (du3 * du3 + dw3 * dw3)
+    solvable = np.abs(det) > PLANE_DET_MIN_REL * np.sqrt(size2)
+    safe = np.where(solvable, det, 1.0)
+    grad_u = (dd1 * dw3 - dd3 * dw1) / safe
+    grad_w = (du1 * dd3 - du3 * dd1) / safe
+    planar = depth[0] + grad_u * (u - quad_u[0]) + grad_w * (w - quad_w[0])
+    return np.where(solvable, planar, depth)
+
+
+def from_reference(axis, along, u, w) -> np.ndarray:
+    """Points (3, m) in (x, y, z) from coordinates ``along`` the reference axis and ``u``,
+    ``w`` (the next two axes, cyclic), each (m,)."""
+    points = np.empty((3, len(axis)))
+    for c in range(3):
+        points[c] = np.where(axis == c, along, np.where(axis == (c + 2) % 3, u, w))
+    return points
+
+
+#: Contact type of a face-axis contact by the incident feature's rank (1 vertex, 2 edge,
+#: 3 face), the reference face being A's (FACE_REF_CODES) or B's (FACE_INC_CODES).
+FACE_REF_CODES = np.array([0, ct.FACE_VERTEX, ct.FACE_EDGE, ct.FACE_FACE], np.int8)
+FACE_INC_CODES = np.array([0, ct.VERTEX_FACE, ct.EDGE_FACE, ct.FACE_FACE], np.int8)
+
+
+def face_labels(ref_is_b, incident, rank, ref_face):
+    """(type code, feature of A, feature of B) of face-axis contacts, each (m,).
+
+    ``ref_is_b`` (m,) bool: the reference face is B's; ``incident`` and ``rank`` (1 vertex,
+    2 edge, 3 face): the incident feature; ``ref_face``: the reference face id.
+    """
+    code = np.where(ref_is_b, FACE_INC_CODES[rank], FACE_REF_CODES[rank])
+    return (code, np.where(ref_is_b, incident, ref_face),
+            np.where(ref_is_b, ref_face, incident))
 
 
 def weighted_point(points, depths, rows, m, scale) -> np.ndarray:

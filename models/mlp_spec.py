@@ -19,7 +19,7 @@ class MLPSpec:
     activation: str  # hidden-layer activation, "tanh" or "relu"; the last layer is linear
     layers: tuple[int, ...]  # widths, input first, output last (at least 2 entries)
     inputs: str = "pose-v1"  # feature layout of the inputs (see models.canonical)
-    outputs: str = "contact-v1"  # meaning of the outputs (contact-v1, or region logits)
+    outputs: str = "contact-v1"  # meaning of the outputs (contact-v1, contact-residual-v1)
 
     def __post_init__(self) -> None:
         if self.activation not in ACTIVATIONS:

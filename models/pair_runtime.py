@@ -22,6 +22,8 @@ from models.mlp import MLPStack
 #: which a predicted depth still counts as in the domain, for pairs whose bundle entry has no
 #: ``auto`` block (which would calibrate it): 0.2 % of e, a fifth of the default scene's range.
 DEFAULT_DEPTH_MARGIN = 0.002
+#: Number of contact type codes (models.contacts), the first axis of the region table.
+_N_CODES = len(ct.CONTACT_TYPES)
 #: Member normals shorter than this (dimensionless) count as the fallback direction in the
 #: spread (see models.canonical.NORMAL_NORM_MIN).
 _NORM_FLOOR = 1e-6
@@ -57,7 +59,7 @@ class PairRuntime:
         self.depth_lo = models.depth_fraction[0] - margin  # fractions of e
         self.depth_hi = models.depth_fraction[1] + margin
         self.single = bundle.mlps[models.single] if models.single else None
-        self.classifier = bundle.mlps[models.classifier] if models.classifier else None
+        self.labeller = models.labeller
         self.regions = models.regions
         parsed = [parse_region_key(r) for r in models.regions]
         self.region_code = np.array([p[0] for p in parsed], np.int8)
@@ -66,7 +68,14 @@ class PairRuntime:
         self.region_axis = np.array([region_axis(*p) for p in parsed], np.int8)
         # (code, canonical feature_a, canonical feature_b, axis) per region, as Python ints
         self.region_rows = [(c, a, b, region_axis(c, a, b)) for c, a, b in parsed]
-        self.ones_regions = np.ones(len(parsed), np.float32)  # sums logits by one dot
+        # (type code, canonical feature_a + 1, canonical feature_b + 1) -> region, -1 for a
+        # region without a committee; "none" (code 0, features -1) -> 0.
+        self.region_table = np.full((_N_CODES, bf.N_FEATURES + 1, bf.N_FEATURES + 1), -1,
+                                    np.int16)
+        for r, (c, a, b) in enumerate(parsed):
+            self.region_table[c, a + 1, b + 1] = r
+        self.region_table[ct.NONE, 0, 0] = 0
+        self.region_dict = {(c, a, b): r for r, (c, a, b) in enumerate(parsed)}
         self.experts = [None] + [MLPStack([bundle.mlps[m] for m in models.experts[r]])
                                  for r in models.regions[1:]]
         self._committee_order()
@@ -95,8 +104,14 @@ class PairRuntime:
         if mode == "single":
             return self.single is not None
         if mode == "committee":
-            return self.classifier is not None
-        return self.classifier is not None and self.auto is not None
+            return self.labeller is not None
+        return self.labeller is not None and self.auto is not None
+
+    def region_of(self, code, feature_a, feature_b) -> np.ndarray:
+        """Region index (m,) int16 of contacts with canonical features, -1 where the region
+        has no committee (``code`` (m,) int8, features (m,) int8, -1 for none)."""
+        return self.region_table[code, feature_a.astype(np.intp) + 1,
+                                 feature_b.astype(np.intp) + 1]
 
     def in_domain(self, depth_fraction):
         """Whether predicted depths (fractions of e) lie in the trained range +- margin."""
@@ -108,39 +123,6 @@ class PairRuntime:
         return ((confidence < a.confidence_min) | (normal_spread > self.spread_normal_max)
                 | (point_spread > self.spread_point_max)
                 | (colliding & ~self.in_domain(depth_fraction)))
-
-
-def decide(logits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Region (m,) intp and its softmax probability (m,) float32 of logits (m, R).
-
-    ``logits`` is overwritten. The softmax is shifted by the block's largest logit ``g``
-    (one scalar subtraction instead of a per-row one): ``p = exp(top - g) / sum exp(l - g)``;
-    rows whose top logit lies more than :data:`_SHIFT_MAX` below ``g`` (where exp would lose
-    precision) are computed with their own shift.
-    """
-    m = len(logits)
-    best = logits.argmax(axis=1)
-    top = logits[np.arange(m), best]
-    shift = top.max() if m else np.float32(0.0)
-    far = np.flatnonzero(top < shift - _SHIFT_MAX)
-    exact = _softmax_top(logits[far], top[far]) if far.size else None
-    np.subtract(logits, shift, out=logits)
-    np.exp(logits, out=logits)
-    with np.errstate(invalid="ignore", divide="ignore"):  # far rows: 0 / 0, replaced below
-        confidence = np.exp(top - shift) / (logits @ np.ones(logits.shape[1], np.float32))
-    if far.size:
-        confidence[far] = exact
-    return best, confidence
-
-
-#: Largest shift (natural-log units) of a row's top logit below the block's for which
-#: ``exp(top - g)`` stays a normal float32 with full precision (exp(-80) = 1.8e-35 > 1.2e-38).
-_SHIFT_MAX = 80.0
-
-
-def _softmax_top(logits: np.ndarray, top: np.ndarray) -> np.ndarray:
-    """Softmax probability of the top logit, rows shifted by their own top."""
-    return 1.0 / np.exp(logits - top[:, None]).sum(axis=1)
 
 
 def member_stats(columns: np.ndarray, scale: float, spread: bool = True, out=None):

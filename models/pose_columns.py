@@ -110,7 +110,7 @@ def _block(array: np.ndarray, start: int, stop: int, dtype) -> np.ndarray:
     return block
 
 
-def _rows(array: np.ndarray, start: int, stop: int) -> np.ndarray:
+def block_rows(array: np.ndarray, start: int, stop: int) -> np.ndarray:
     """Rows ``start:stop`` of an (1|n, ...) array (a one-row array as it is, to broadcast)."""
     return array if len(array) == 1 else array[start:stop]
 
@@ -183,10 +183,12 @@ def canonical_block(inputs: Inputs, start: int, stop: int, inv_scale: float,
     m = stop - start
     qa = _block(inputs.quaternion_a, start, stop, np.float32)
     qb = _block(inputs.quaternion_b, start, stop, np.float32)
-    norm2_a, norm2_b = _rows(inputs.norm2_a, start, stop), _rows(inputs.norm2_b, start, stop)
+    norm2_a = block_rows(inputs.norm2_a, start, stop)
+    norm2_b = block_rows(inputs.norm2_b, start, stop)
     scale_a = (2.0 / norm2_a).astype(np.float32)
     scale_ab = (2.0 / (norm2_a * norm2_b)).astype(np.float32)
-    offset = _rows(inputs.position_b, start, stop) - _rows(inputs.position_a, start, stop)
+    offset = (block_rows(inputs.position_b, start, stop)
+              - block_rows(inputs.position_a, start, stop))
     offset = _block(offset, 0, m, np.float32)  # p_B - p_A in float64, then float32 columns
     rot_a = _rotation(qa, scale_a, np.empty((9, m), np.float32)).reshape(3, 3, m)
     rot = _rotation(_relative_quaternion(qa, qb), scale_ab, np.empty((9, m), np.float32))
@@ -201,17 +203,21 @@ def canonical_block(inputs: Inputs, start: int, stop: int, inv_scale: float,
     return Frame(to_world, _flip_index(s), _flip_index(sign_b))
 
 
-def world_block(columns: np.ndarray, frame: Frame, inputs: Inputs, start: int, stop: int,
-                scale: float, point: np.ndarray, normal: np.ndarray) -> None:
+def world_block(columns: np.ndarray, frame: Frame, origin: np.ndarray, scale: float,
+                point: np.ndarray, normal: np.ndarray) -> None:
     """World point and normal of canonical ``contact-v1`` outputs, into ``point``, ``normal``.
 
     Parameters
     ----------
     columns : ndarray, shape (>= 6, m), float32
-        Rows ``start:stop``'s outputs as columns: point / L (3), normal (3); normals
-        shorter than NORMAL_NORM_MIN are replaced by FALLBACK_NORMAL in place.
+        A block's outputs as columns: point / L (3), normal (3); normals shorter than
+        NORMAL_NORM_MIN are replaced by FALLBACK_NORMAL in place.
     frame : Frame
         From :func:`canonical_block` for the same rows.
+    origin : ndarray, shape (1 | m, 3), float64
+        What the canonical point is relative to, world frame (metres): A's position
+        (``block_rows(inputs.position_a, start, stop)``), or the committee's unclipped
+        points (its experts predict the residual).
     scale : float
         The pair's L, metres.
     point, normal : ndarray, shape (m, 3), float64
@@ -233,4 +239,4 @@ def world_block(columns: np.ndarray, frame: Frame, inputs: Inputs, start: int, s
     world_p += rows[:, 1] * p[1]
     world_p += rows[:, 2] * p[2]
     world_p *= np.float32(scale)
-    np.add(_rows(inputs.position_a, start, stop), world_p.T, out=point)
+    np.add(origin, world_p.T, out=point)

@@ -5,6 +5,8 @@
 ``predictor`` filled. Names: ``exact`` (the SAT solver, no bundle needed), ``single``,
 ``committee``, ``auto`` (learned, from a bundle: a folder path or a loaded
 :class:`models.bundles.Bundle`; None = the shipped default bundle, :data:`DEFAULT_BUNDLE`).
+A folder may be a plain bundle or a bundle store, which reads its ``current`` version
+(:func:`models.bundle_store.resolve_bundle`).
 """
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from models.bundle_store import resolve_bundle
 from models.bundles import Bundle, BundleError, read_bundle
 from models.contacts import Contacts
 from models.exact import box_box
@@ -71,7 +74,7 @@ def load_predictor(name: str = "auto", bundle: str | os.PathLike | Bundle | None
                               "with `impactnet train`, or use predictor 'exact')")
         bundle = DEFAULT_BUNDLE
     if not isinstance(bundle, Bundle):
-        bundle = read_bundle(bundle)
+        bundle = read_bundle(resolve_bundle(bundle))  # a store reads its current version
     predictor: LearnedPredictor = _LEARNED[name](bundle)
     if not any(pair.supports(name) for pair in predictor.pairs) and name != "auto":
         raise BundleError(f"bundle {bundle.version} has no {name!r} models for any pair")

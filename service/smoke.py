@@ -161,4 +161,4 @@ def smoke_test(predictors: dict[str, Predictor], bundle: Bundle, n: int,
 
 
 def _has_models(models, mode: str) -> bool:
-    return models.single is not None if mode == "single" else models.classifier is not None
+    return models.single is not None if mode == "single" else models.labeller is not None

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from models.bundle_store import resolve_bundle
 from models.bundles import Bundle, BundleError, read_bundle
 from models.pair_dispatch import UNSUPPORTED, PairTable
 from models.predictors import DEFAULT_BUNDLE, load_predictor
@@ -56,7 +57,11 @@ class LoadError(RuntimeError):
 
 
 def configured_bundle(setting: str | None, scene: SceneView) -> Path | None:
-    """The bundle folder of the configuration (step ``resolve``), None for no bundle."""
+    """The bundle folder of the configuration (step ``resolve``), None for no bundle.
+
+    The folder may be a plain bundle or a bundle store (:mod:`models.bundle_store`), whose
+    ``current`` version :func:`read_for_scene` reads.
+    """
     if setting is None:
         if not scene.name:
             return None
@@ -72,7 +77,7 @@ def read_for_scene(path: Path, scene: SceneView) -> Bundle:
     if not path.is_dir():
         raise LoadError("read", f"bundle {str(path)!r}: no such folder", path)
     try:
-        bundle = read_bundle(path)
+        bundle = read_bundle(resolve_bundle(path))  # a store reads its current version
     except (BundleError, OSError) as exc:
         raise LoadError("read", f"bundle {str(path)!r} refused: {exc}", path) from exc
     built_for = bundle.manifest.get("scene") or {}
@@ -109,7 +114,7 @@ def describe(bundle: Bundle, path: Path, scene: SceneView) -> dict:
     for key, models in bundle.pairs.items():
         entry = manifest["pairs"][key]
         modes = (["single"] if models.single else []) + (
-            ["committee", "auto"] if models.classifier else [])
+            ["committee", "auto"] if models.labeller else [])
         pairs[key] = {
             "size_a": list(models.size_a), "size_b": list(models.size_b),
             "depth_fraction": list(models.depth_fraction), "modes": modes,

@@ -58,12 +58,14 @@ def calibration_scores(pred: dict, depth_fraction: tuple[float, float]) -> np.nd
     """The four "keep if <= threshold" scores of every row, (4, n) float64.
 
     ``pred``: :func:`training.pair_eval.committee_predictions` output. Rows predicted "none"
-    have spreads 0 and no depth excess.
+    have spreads 0 and no depth excess; rows answered exactly anyway (``pred["exact"]``: a
+    region without a committee) get an infinite depth excess, so that they count as fallback.
     """
     lo, hi = depth_fraction
     depth = pred["output"][:, 6]
     contact = pred["region"] != 0
     excess = np.where(contact, np.maximum(np.maximum(lo - depth, depth - hi), 0.0), 0.0)
+    excess[pred["exact"]] = np.inf
     return np.stack([-pred["confidence"], pred["normal_spread_deg"], pred["point_spread"],
                      excess]).astype(np.float64)
 
@@ -71,7 +73,8 @@ def calibration_scores(pred: dict, depth_fraction: tuple[float, float]) -> np.nd
 def _candidates(score: np.ndarray, unlimited: float) -> np.ndarray:
     """Ascending "keep if <=" candidates of one axis: score quantiles, then "no limit"."""
     levels = 1.0 - np.asarray(DROP_LEVELS)
-    cuts = np.unique(np.quantile(score, levels))
+    finite = score[np.isfinite(score)]  # rows answered exactly anyway score +inf
+    cuts = np.unique(np.quantile(finite, levels)) if finite.size else np.empty(0)
     return np.concatenate([cuts[cuts < unlimited], [unlimited]])
 
 

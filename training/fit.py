@@ -49,6 +49,8 @@ class FitConfig:
     patience: int = 10  # epochs without a new best validation loss before a group stops
     min_delta: float = 1e-3  # relative improvement of the validation loss that counts as best
     learning_rate: float = 3e-3  # Adam step size at the start of the cosine schedule
+    momentum: float = 0.9  # Adam's beta1, the decay of its running mean of gradients (the
+    # paper tuned SGD's momentum; this is its counterpart)
     final_lr_fraction: float = 0.01  # the cosine ends at learning_rate times this
     val_rows: int = 8192  # validation rows per group used for early stopping (first ones)
     time_limit_s: float = math.inf  # wall-clock cap of the call, seconds
@@ -167,7 +169,8 @@ def fit(model: StackedMLP, loss: RowLoss, x: torch.Tensor, y: torch.Tensor,
     if len(train) != model.groups or len(val) != model.groups:
         raise ValueError(f"model has {model.groups} groups, rows {len(train)} / {len(val)}")
     start = time.perf_counter()
-    optimiser = torch.optim.Adam(model.parameters(), lr=config.learning_rate)
+    optimiser = torch.optim.Adam(model.parameters(), lr=config.learning_rate,
+                                 betas=(config.momentum, 0.999))
     val_index, val_mask = val.padded(config.val_rows)
     groups = model.groups
     best = group_losses(model, loss, x, y, val_index, val_mask)

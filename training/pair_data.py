@@ -7,15 +7,16 @@ Stages of :func:`make_pair_data`:
    depth range.
 2. Learning arrays: :func:`models.canonical.learning_arrays` (the inference side's code, so
    both sides agree) gives ``pose-v1`` features, ``contact-v1`` targets and canonical region
-   keys.
+   keys; :func:`models.region_label.unclipped_points` the unclipped point, from which the
+   experts learn the residual (:meth:`PairData.expert_targets`).
 3. Splits: a permutation seeded by the pair's seed splits the rows into train / validation /
    test by the configured shares. Validation drives early stopping and the ``auto``
    calibration; test is only measured.
-4. Region classes (:func:`region_classes`): ``"none"`` first, then every region with at least
-   ``min_region_rows`` training rows, most frequent first. Rarer regions get no class and no
-   committee: their rows are *unsure* rows, labelled -1, and the classifier is trained to
-   give them a uniform distribution (see :mod:`training.train_committee`), so its confidence
-   there is low and ``auto`` hands them to the exact solver.
+4. Region classes (:func:`region_classes`): ``"none"`` first, then every face-axis region with
+   at least ``min_region_rows`` training rows, most frequent first. Rarer regions get no
+   class and no committee: their rows are labelled -1, and at inference the exact solver
+   answers them (see :mod:`training.train_committee`). Edge-edge rows (labelled -2) need no
+   committee: the region labeller gives their point exactly.
 """
 from __future__ import annotations
 
@@ -24,11 +25,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from models import canonical as cn
+from models.region_label import unclipped_points
 from training.datagen import DatagenConfig, generate_pairs
 
-#: Label of training rows whose region has no class (too rare): the classifier's target for
-#: them is the uniform distribution over all classes.
+#: The six input columns of a dataset, in box_box's order.
+INPUT_KEYS = ("size_a", "position_a", "quaternion_a", "size_b", "position_b", "quaternion_b")
+
+#: Label of rows whose region has no class (too rare for a committee; answered exactly).
 UNSURE_LABEL = -1
+#: Label of edge-edge rows: the region labeller gives their point exactly (the closest points
+#: of the two edges), so they need no committee.
+EXACT_POINT_LABEL = -2
+#: Region keys of edge-edge contacts start with this.
+_EDGE_EDGE_PREFIX = "edge-edge:"
 #: Spawn-key suffix of the split's random stream under the pair's seed (datagen's chunks use
 #: suffixes 0, 1, ...; this one is far beyond any chunk count).
 SPLIT_STREAM = 1_000_001
@@ -58,12 +67,22 @@ class PairData:
     features: np.ndarray  # (n, 12) float32, pose-v1
     targets: np.ndarray  # (n, 7) float32, contact-v1 (meaningless on "none" rows)
     keys: np.ndarray  # (n,) str, canonical region keys
-    labels: np.ndarray  # (n,) int64, class index into regions, UNSURE_LABEL for rare regions
-    regions: list[str]  # the classifier's classes, "none" first
+    labels: np.ndarray  # (n,) int64, class index into regions, UNSURE_LABEL for rare regions,
+    # EXACT_POINT_LABEL for edge-edge rows
+    regions: list[str]  # the regions with a committee, "none" first
     split: dict[str, np.ndarray]  # "train", "val", "test" -> row indices (int64)
     scale: float  # pair scale L = max(h_A) + max(h_B), metres
     edge: float  # shortest edge e of the pair, metres
     depth_fraction: tuple[float, float]  # trained depth range, fractions of e
+    unclipped: np.ndarray  # (n, 3) float32, the region labeller's unclipped point, canonical
+    # A frame / L (models.region_label; meaningless on "none" rows)
+
+    def expert_targets(self) -> np.ndarray:
+        """The experts' targets (n, 7) float32: ``contact-v1`` with the point replaced by its
+        residual from the unclipped point (what the experts learn)."""
+        targets = self.targets.copy()
+        targets[:, :3] -= self.unclipped
+        return targets
 
     def rows(self, split: str, colliding: bool = False) -> np.ndarray:
         """Row indices of a split, only the colliding ones (key != "none") if asked."""
@@ -99,14 +118,17 @@ def region_classes(keys: np.ndarray, train: np.ndarray, min_rows: int):
     regions : list of str
         ``"none"`` then the regions with >= ``min_rows`` training rows, by count, then key.
     labels : ndarray of int64, shape (n,)
-        Class index of every row, :data:`UNSURE_LABEL` for rows of rarer regions.
+        Class index of every row, :data:`UNSURE_LABEL` for rows of rarer regions,
+        :data:`EXACT_POINT_LABEL` for edge-edge rows (no committee: their point is exact).
     """
     names, counts = np.unique(keys[train], return_counts=True)
-    kept = [(-c, str(k)) for k, c in zip(names, counts) if c >= min_rows and k != cn.NONE_KEY]
+    kept = [(-c, str(k)) for k, c in zip(names, counts) if c >= min_rows and k != cn.NONE_KEY
+            and not str(k).startswith(_EDGE_EDGE_PREFIX)]
     regions = [cn.NONE_KEY] + [k for _, k in sorted(kept)]
     lookup = {k: i for i, k in enumerate(regions)}
     unique, inverse = np.unique(keys, return_inverse=True)
-    table = np.array([lookup.get(str(k), UNSURE_LABEL) for k in unique], dtype=np.int64)
+    table = np.array([EXACT_POINT_LABEL if str(k).startswith(_EDGE_EDGE_PREFIX)
+                      else lookup.get(str(k), UNSURE_LABEL) for k in unique], dtype=np.int64)
     return regions, table[inverse.reshape(-1)]
 
 
@@ -129,9 +151,12 @@ def make_pair_data(size_a, size_b, seed: np.random.SeedSequence,
     rows = generate_pairs(size_a, size_b, config.rows, seed, datagen,
                           depth_fraction=depth_fraction, progress=False)
     arrays = cn.learning_arrays(rows)
+    unclipped = unclipped_points(*(rows[k] for k in INPUT_KEYS))
+    baseline = cn.learning_arrays({**rows, "point": unclipped}).targets[:, :3]
     split = split_rows(config.rows, config, stream(seed, SPLIT_STREAM))
     regions, labels = region_classes(arrays.keys, split["train"], config.min_region_rows)
     half_a, half_b = np.asarray(size_a, float)[None] / 2, np.asarray(size_b, float)[None] / 2
     scale, edge = cn.pair_lengths(half_a, half_b)
     return PairData(arrays.features, arrays.targets, arrays.keys, labels, regions, split,
-                    float(scale[0]), float(edge[0]), tuple(float(v) for v in depth_fraction))
+                    float(scale[0]), float(edge[0]), tuple(float(v) for v in depth_fraction),
+                    baseline)

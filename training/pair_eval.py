@@ -5,11 +5,14 @@ figures are those of the float32 networks that serving runs. Everything is measu
 canonical frame, where errors equal the world frame's (a sign flip and a rotation preserve
 angles and distances).
 
-Per row (:func:`committee_predictions`): the classifier's region (argmax) and confidence (its
-softmax probability); for a predicted contact region, that region's K members, averaged
-(normal renormalised), the normal spread (largest angle between two member normals, degrees),
-the point spread (largest distance between two member points, fraction of the shortest edge
-e) and the raw predicted depth (fraction of e, not clipped).
+Per row (:func:`committee_predictions`): the region is the exact labeller's
+(:mod:`models.region_label`), which equals the data's label by construction (both are the
+exact solver's decision), so the rows' labels stand in for it; confidence 1. The normal and
+depth are the labeller's too (the targets'). For a contact region with a committee, that
+region's K members give the point, averaged, with the normal spread (largest angle between
+two member normals, degrees) and the point spread (largest distance between two member
+points, fraction of the shortest edge e). Rows of a region without a committee are answered
+by the exact solver (``exact`` True, output = target).
 
 Errors (:func:`contact_errors`): normal angle (degrees) and point distance (fraction of e).
 A row where prediction and truth disagree on contact vs none has error +inf in both
@@ -22,7 +25,7 @@ import numpy as np
 
 from models import canonical as cn
 from models.mlp import MLP, MLPSpec, MLPStack
-from training.pair_data import PairData
+from training.pair_data import EXACT_POINT_LABEL, UNSURE_LABEL, PairData
 
 #: Error (degrees and fraction of e) of a row predicted "none" that is a contact or vice versa:
 #: no tolerance accepts it.
@@ -61,34 +64,43 @@ def _max_pairwise(vectors: np.ndarray, angle: bool) -> np.ndarray:
     return best
 
 
-def committee_predictions(models: dict[str, MLP], classifier: str,
-                          experts: dict[str, list[str]], regions: list[str],
-                          features: np.ndarray, scale: float, edge: float) -> dict:
+def committee_predictions(models: dict[str, MLP], experts: dict[str, list[str]],
+                          regions: list[str], features: np.ndarray, labels: np.ndarray,
+                          targets: np.ndarray, unclipped: np.ndarray, scale: float,
+                          edge: float) -> dict:
     """The committee's answer on rows ``features`` (n, 12); see the module docstring.
+
+    ``labels`` (n,) are the rows' region classes (-1: no committee, -2: edge-edge, whose
+    unclipped point is exact), ``targets`` (n, 7) their
+    exact contact-v1 outputs, ``unclipped`` (n, 3) the labeller's unclipped points
+    (canonical, / L), to which the experts' residuals are added.
 
     Returns
     -------
     dict of ndarray, n rows each
-        ``region`` int (class index), ``confidence``, ``output`` (n, 7) (canonical point / L,
-        unit normal, depth / e), ``normal_spread_deg``, ``point_spread`` (fraction of e).
+        ``region`` int (class index), ``confidence``, ``exact`` (bool: answered exactly),
+        ``output`` (n, 7) (canonical point / L, unit normal, depth / e),
+        ``normal_spread_deg``, ``point_spread`` (fraction of e).
     """
     n = len(features)
-    probs = softmax(models[classifier](features))
-    region = probs.argmax(axis=1)
-    out = {"region": region, "confidence": probs[np.arange(n), region],
+    exact = labels == UNSURE_LABEL
+    out = {"region": labels.copy(), "confidence": np.ones(n), "exact": exact,
            "output": np.zeros((n, cn.N_CONTACT_OUTPUTS)), "normal_spread_deg": np.zeros(n),
            "point_spread": np.zeros(n)}
+    out["output"][exact] = targets[exact]
+    contact = labels != 0
+    out["output"][contact, 3:] = targets[contact, 3:]
+    edges = labels == EXACT_POINT_LABEL
+    out["output"][edges, :3] = unclipped[edges]
     for r, key in enumerate(regions):
-        rows = np.flatnonzero(region == r)
+        rows = np.flatnonzero(labels == r)
         if r == 0 or rows.size == 0:
             continue
         members = MLPStack([models[m] for m in experts[key]]).forward(features[rows])
         members = members.astype(np.float64)
         normals = members[:, :, 3:6] / np.maximum(
             np.linalg.norm(members[:, :, 3:6], axis=2, keepdims=True), cn.NORMAL_NORM_MIN)
-        mean = members.mean(axis=0)
-        mean[:, 3:6] = cn.unit_normals(mean[:, 3:6])
-        out["output"][rows] = mean
+        out["output"][rows, :3] = unclipped[rows] + members[:, :, :3].mean(axis=0)
         out["normal_spread_deg"][rows] = _max_pairwise(normals, angle=True)
         out["point_spread"][rows] = _max_pairwise(members[:, :, :3], angle=False) * scale / edge
     return out
@@ -129,9 +141,9 @@ def evaluate_rows(data: PairData, split: str, models: dict[str, MLP], blocks: di
     """Committee (and single) predictions and errors on a split, as per-row arrays."""
     rows = data.rows(split)
     features, targets = data.features[rows], data.targets[rows].astype(np.float64)
-    regions = blocks["classifier"]["regions"]
-    pred = committee_predictions(models, blocks["classifier"]["mlp"], blocks["experts"],
-                                 regions, features, data.scale, data.edge)
+    pred = committee_predictions(models, blocks["experts"], blocks["classifier"]["regions"],
+                                 features, data.labels[rows], targets,
+                                 data.unclipped[rows].astype(np.float64), data.scale, data.edge)
     true_contact = data.keys[rows] != cn.NONE_KEY
     pred_contact = pred["region"] != 0
     pred["true_region"] = data.labels[rows]

@@ -17,12 +17,12 @@ Stages of :func:`train_scene`:
 """
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import multiprocessing
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -34,6 +34,7 @@ from tqdm import tqdm
 from models.bundles import write_bundle
 from models.scenes import Scene
 from training.fit import FitConfig
+from training.pair_cache import PairCache, plain
 from training.pair_data import PairDataConfig
 from training.scene_figures import pooled_figures
 from training.train_committee import CommitteeConfig
@@ -59,8 +60,7 @@ def quick_config(seed: int = 0) -> TrainConfig:
                     val_rows=1024)
     pair = PairTrainConfig(seed=seed, data=PairDataConfig(rows=6000, min_region_rows=30),
                            single=SingleConfig(hidden=(16, 16), fit=fit),
-                           committee=CommitteeConfig(classifier_hidden=(32, 32),
-                                                     classifier_fit=fit, expert_hidden=(16, 16),
+                           committee=CommitteeConfig(expert_hidden=(16, 16),
                                                      members=2, expert_fit=fit))
     return TrainConfig(pair=pair, workers=1, quick=True)
 
@@ -76,45 +76,60 @@ def _pair_job(scene: Scene, index: int, config: PairTrainConfig,
     return train_pair(scene, index, config, progress)
 
 
-def train_pairs(scene: Scene, config: TrainConfig, progress: bool | None = None,
-                pairs: list[int] | None = None) -> list[PairResult]:
-    """Train the pairs ``pairs`` (default: all) of a scene, in scene order of the result."""
-    indices = list(range(len(scene.pairs))) if pairs is None else list(pairs)
+def _train_missing(scene: Scene, config: TrainConfig, indices: list[int], progress: bool | None,
+                   done: Callable[[int, PairResult], None]) -> None:
+    """Train the pairs ``indices``; ``done(index, result)`` as each one finishes."""
     workers = max(1, min(config.workers, len(indices)))
+    if workers == 1:
+        for index in indices:
+            done(index, train_pair(scene, index, config.pair, progress))
+        return
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(workers, mp_context=context) as pool:
+        futures = {pool.submit(_pair_job, scene, index, config.pair, False): index
+                   for index in indices}
+        for future in as_completed(futures):
+            done(futures[future], future.result())
+
+
+def train_pairs(scene: Scene, config: TrainConfig, progress: bool | None = None,
+                pairs: list[int] | None = None, cache: PairCache | None = None,
+                reused: list[str] | None = None, reuse: bool = True) -> list[PairResult]:
+    """Train the pairs ``pairs`` (default: all) of a scene, in scene order of the result.
+
+    With a ``cache`` (:class:`training.pair_cache.PairCache`), a pair whose entry exists is
+    reused instead of trained (said on stderr, and its key appended to ``reused``), and every
+    trained pair is stored as soon as it finishes: an interrupted run loses at most the pairs
+    in progress, and its rerun resumes from the finished ones with the same result.
+    ``reuse=False`` trains every pair and only refreshes the cache.
+    """
+    indices = list(range(len(scene.pairs))) if pairs is None else list(pairs)
     show = sys.stderr.isatty() if progress is None else progress
     results: dict[int, PairResult] = {}
-    with tqdm(total=len(indices), desc=f"train {scene.name}", unit="pair", disable=not show,
+    for index in indices if cache is not None and reuse else []:
+        hit = cache.get(scene, index, config.pair)
+        if hit is not None:
+            results[index] = hit
+            if reused is not None:
+                reused.append(hit.key)
+            _log(f"{hit.key} unchanged (same sizes, data and training settings): reused from "
+                 f"{cache.root}")
+    missing = [i for i in indices if i not in results]
+    with tqdm(total=len(missing), desc=f"train {scene.name}", unit="pair", disable=not show,
               file=sys.stderr, dynamic_ncols=True) as bar:
         def done(index: int, result: PairResult) -> None:
             results[index] = result
+            if cache is not None:
+                cache.put(scene, index, config.pair, result)
             test = result.block["test"]
             bar.set_postfix_str(f"{result.key}: region acc {test['region_accuracy']:.3f}, "
                                 f"fallback {test['auto']['fallback_share']:.3f}")
             bar.update(1)
             _log(f"{result.key} done in {result.seconds:.0f} s")
 
-        if workers == 1:
-            for index in indices:
-                done(index, train_pair(scene, index, config.pair, progress))
-        else:
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(workers, mp_context=context) as pool:
-                futures = {index: pool.submit(_pair_job, scene, index, config.pair, False)
-                           for index in indices}
-                for index in indices:
-                    done(index, futures[index].result())
+        if missing:
+            _train_missing(scene, config, missing, progress, done)
     return [results[i] for i in indices]
-
-
-def _plain(value):
-    """Dataclasses and tuples as JSON-ready dicts and lists."""
-    if dataclasses.is_dataclass(value):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if isinstance(value, tuple | list):
-        return [_plain(v) for v in value]
-    if isinstance(value, float) and value == float("inf"):
-        return None
-    return value
 
 
 def rebuild_command(scene: Scene, out, seed: int, quick: bool) -> str:
@@ -138,7 +153,7 @@ def build_manifest(scene: Scene, results: list[PairResult], config: TrainConfig,
         "scene": {"name": scene.name, "hash": scene.hash()},
         "rebuild_command": rebuild_command(scene, out, seed, config.quick),
         "seeds": {"data": seed, "torch": seed},
-        "training": {"config": _plain(config), "torch_version": torch.__version__,
+        "training": {"config": plain(config), "torch_version": torch.__version__,
                      "seconds": round(seconds, 1)},
         "mlps": {name: spec for r in results for name, spec in r.mlps.items()},
         "pairs": {r.key: r.block for r in results},

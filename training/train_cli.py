@@ -1,11 +1,18 @@
 """`impactnet train`: argument parsing and the command body, for impactnet/cli.py to wire in.
 
     impactnet train --scene quay_crane --out models/bundles/quay_crane --seed 0 [--quick]
-                    [--workers 2] [--no-progress]
+                    [--workers 2] [--no-progress] [--no-reuse] [--cache DIR]
+                    [--no-gate] [--max-fallback-share F] [--keep N]
 
-Trains the learned models of every pair of the scene (:mod:`training.train`) and writes the
-bundle folder atomically; prints one line per pair (test-split region accuracy, committee and
-auto figures) and the wall time. Exit status: 0 done, 2 bad scene or arguments.
+Trains the learned models of the scene's pairs into a new version of the bundle store ``--out``
+(:mod:`training.train_jobs`): unchanged pairs are reused from the per-pair cache (said on
+stderr), a rerun after an interruption resumes from the finished pairs, and the ``current``
+pointer moves to the new version only when it passes the validation gate
+(:mod:`training.validation_gate`: the scene's p99 tolerances on every pair's held-out test
+split). Prints one line per pair (test figures), the gate's verdict and the wall time.
+
+Exit status: 0 published; 2 bad scene or arguments; 3 the gate refused the new version
+(``current`` untouched); 130 interrupted (finished pairs cached: rerun to resume).
 """
 from __future__ import annotations
 
@@ -16,6 +23,8 @@ import time
 
 EXIT_OK = 0
 EXIT_USAGE = 2
+EXIT_GATE = 3
+EXIT_INTERRUPTED = 130
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,7 +33,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="scene name (looked up in scenes/ or $IMPACTNET_SCENES_DIR) or "
                              "path to a .toml file (default: quay_crane)")
     parser.add_argument("--out", default=None,
-                        help="bundle folder to write (default: models/bundles/<scene>)")
+                        help="bundle store to write a new version into (default: "
+                             "models/bundles/<scene>)")
     parser.add_argument("--seed", type=int, default=0,
                         help="data and torch seed, >= 0 (default: 0)")
     parser.add_argument("--quick", action="store_true",
@@ -32,12 +42,44 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=None,
                         help="pairs trained in parallel processes (default: 2; quick: 1)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    parser.add_argument("--no-reuse", action="store_true",
+                        help="retrain every pair, even unchanged ones (the cache is refreshed)")
+    parser.add_argument("--cache", default=None,
+                        help="per-pair cache folder (default: <out>/.cache/pairs)")
+    parser.add_argument("--no-gate", action="store_true",
+                        help="publish the new version even if it fails the validation gate "
+                             "(the verdict is still recorded in its manifest)")
+    parser.add_argument("--max-fallback-share", type=float, default=1.0,
+                        help="gate: largest share of a pair's test rows that auto may hand to "
+                             "the exact solver (default: 1.0, no bound)")
+    parser.add_argument("--keep", type=int, default=None,
+                        help="accepted versions kept in the store, the current one included "
+                             "(default: 5)")
+
+
+def _job_config(args: argparse.Namespace):
+    """The :class:`training.train_jobs.JobConfig` of the arguments (ValueError when bad)."""
+    from pathlib import Path
+
+    from training.train_jobs import KEEP_VERSIONS, JobConfig
+    from training.validation_gate import GateConfig
+
+    if not 0.0 <= args.max_fallback_share <= 1.0:
+        raise ValueError(f"--max-fallback-share must be in [0, 1], got {args.max_fallback_share}")
+    keep = KEEP_VERSIONS if args.keep is None else args.keep
+    if keep < 1:
+        raise ValueError(f"--keep must be >= 1, got {keep}")
+    return JobConfig(reuse=not args.no_reuse,
+                     cache_dir=Path(args.cache) if args.cache else None,
+                     gate=GateConfig(max_fallback_share=args.max_fallback_share),
+                     enforce_gate=not args.no_gate, keep_versions=keep)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Train the scene named by ``args`` into a bundle; returns the exit status."""
+    """Train the scene named by ``args`` into a new store version; returns the exit status."""
     from models.scenes import SceneError, load_scene
-    from training.train import TrainConfig, quick_config, train_scene
+    from training.train import TrainConfig, quick_config
+    from training.train_jobs import run_train_job
     from training.train_pair import PairTrainConfig
 
     try:
@@ -46,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"--seed must be >= 0, got {args.seed}")
         if args.workers is not None and args.workers < 1:
             raise ValueError(f"--workers must be >= 1, got {args.workers}")
+        job = _job_config(args)
     except (SceneError, ValueError) as exc:
         print(f"impactnet train: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -55,11 +98,36 @@ def run(args: argparse.Namespace) -> int:
         config = dataclasses.replace(config, workers=args.workers)
     out = args.out or f"models/bundles/{scene.name}"
     start = time.perf_counter()
-    path, manifest = train_scene(scene, out, config,
-                                 progress=False if args.no_progress else None)
-    _print_summary(manifest, time.perf_counter() - start)
-    print(f"wrote {path} (version {manifest['version']})")
-    return EXIT_OK
+    try:
+        outcome = run_train_job(scene, out, config, job,
+                                progress=False if args.no_progress else None)
+    except KeyboardInterrupt:
+        print(f"impactnet train: interrupted; finished pairs are cached, '{out}/current' is "
+              "unchanged: run the same command again to resume", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    _print_summary(outcome.manifest, time.perf_counter() - start)
+    return _report_outcome(outcome, out)
+
+
+def _report_outcome(outcome, out) -> int:
+    """The gate's verdict and where the version went; the exit status."""
+    gate = outcome.gate
+    if outcome.reused:
+        print(f"reused {len(outcome.reused)} unchanged pairs: {', '.join(outcome.reused)}")
+    if gate.passed:
+        print(f"validation gate passed ({len(gate.checks)} checks)")
+    else:
+        print("validation gate FAILED:\n  " + "\n  ".join(gate.failures),
+              file=sys.stderr)
+    if outcome.published:
+        before = outcome.previous or "none"
+        print(f"wrote {outcome.path} (version {outcome.version}); {out}/current: {before} -> "
+              f"{outcome.version}")
+        return EXIT_OK
+    print(f"impactnet train: version {outcome.version} refused by the validation gate, kept in "
+          f"{outcome.path}; {out}/current still names {outcome.previous or 'nothing'} "
+          "(--no-gate publishes anyway)", file=sys.stderr)
+    return EXIT_GATE
 
 
 def _number(value, scale: float = 1.0, digits: int = 3) -> str:

@@ -5,8 +5,9 @@ Stages of :func:`train_pair` (one process, one torch thread, deterministic kerne
 1. Data (:func:`training.pair_data.make_pair_data`): labelled rows, train / val / test split,
    region classes.
 2. ``single`` (:func:`training.train_single.train_single`).
-3. Committee: classifier (:func:`training.train_committee.train_classifier`), then the experts
-   of every region together (:func:`training.train_committee.train_experts`).
+3. Committee: the experts of every region together
+   (:func:`training.train_committee.train_experts`); the region classifier is the exact
+   labeller, nothing to train.
 4. Export to the contract's tensors and run them with the inference side's NumPy MLPs on the
    validation rows (:mod:`training.pair_eval`); calibrate ``auto`` there
    (:mod:`training.calibrate`).
@@ -46,13 +47,12 @@ from training.scene_figures import row_record
 from training.train_committee import (
     CommitteeConfig,
     export_committee,
-    train_classifier,
     train_experts,
 )
 from training.train_single import SingleConfig, train_single
 
 #: Spawn-key suffixes (under the pair's seed) of the torch generators of each component.
-TORCH_STREAMS = {"single": 2_000_001, "classifier": 2_000_002, "experts": 2_000_003}
+TORCH_STREAMS = {"single": 2_000_001, "experts": 2_000_003}
 
 
 @dataclass(frozen=True)
@@ -63,7 +63,7 @@ class PairTrainConfig:
     data: PairDataConfig = field(default_factory=PairDataConfig)  # rows and splits
     datagen: DatagenConfig = field(default_factory=DatagenConfig)  # orientation families
     single: SingleConfig = field(default_factory=SingleConfig)  # the single MLP
-    committee: CommitteeConfig = field(default_factory=CommitteeConfig)  # classifier, experts
+    committee: CommitteeConfig = field(default_factory=CommitteeConfig)  # the experts
 
 
 @dataclass
@@ -130,17 +130,11 @@ def train_pair(scene: Scene, index: int, config: PairTrainConfig,
                                           f"{pair.key} single")
         timing["single"] = time.perf_counter() - t
         t = time.perf_counter()
-        classifier, clf_rec = train_classifier(data, config.committee,
-                                               torch_generator(seed, "classifier"), progress,
-                                               f"{pair.key} classifier")
-        timing["classifier"] = time.perf_counter() - t
-        t = time.perf_counter()
         experts, exp_rec = train_experts(data, scene.accuracy, config.committee,
                                          torch_generator(seed, "experts"), progress,
                                          f"{pair.key} experts")
         timing["experts"] = time.perf_counter() - t
-    tensors, mlps, blocks = export_committee(prefix, data.regions, classifier, experts,
-                                             config.committee)
+    tensors, mlps, blocks = export_committee(prefix, data.regions, experts, config.committee)
     tensors.update(single.export(0, f"{prefix}_single"))
     mlps[f"{prefix}_single"] = config.single.spec().to_dict()
     t = time.perf_counter()
@@ -152,8 +146,7 @@ def train_pair(scene: Scene, index: int, config: PairTrainConfig,
         "rows": {name: int(len(rows)) for name, rows in data.split.items()},
         "regions_seen": int(len(np.unique(data.keys[data.split["train"]]))),
         "region_classes": len(data.regions),
-        "fit": {"single": single_rec.summary(), "classifier": clf_rec.summary(),
-                "experts": exp_rec.summary()},
+        "fit": {"single": single_rec.summary(), "experts": exp_rec.summary()},
         "seconds": {k: round(v, 2) for k, v in {**timing, "total": seconds}.items()},
         "cpu_seconds": round(time.process_time() - cpu_start, 2),  # this process's CPU time
     }

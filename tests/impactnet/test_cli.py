@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from impactnet.cli import EXIT_NOT_IMPLEMENTED, main
+from impactnet.cli import main
 
 
 def test_building_the_parser_imports_nothing_heavy():
@@ -26,9 +26,17 @@ def test_contact_prints_the_exact_answer_as_json(capsys):
     assert body["point"] == pytest.approx([0, 0, 0.95])
 
 
-def test_pending_subcommands_say_which_issue_brings_them(capsys):
-    assert main(["sweep", "--anything"]) == EXIT_NOT_IMPLEMENTED
-    assert "issue" in capsys.readouterr().err
+def test_sweep_is_wired_and_checks_its_arguments(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["sweep", "--help"])
+    assert exit_info.value.code == 0
+    assert "--storage" in capsys.readouterr().out
+    with pytest.raises(SystemExit):  # --study is required
+        main(["sweep", "--quick"])
+    assert main(["sweep", "--study", "s", "--trials", "0", "--workdir", str(tmp_path)]) == 2
+    assert "--trials must be >= 1" in capsys.readouterr().err
+    assert main(["sweep", "--study", "missing", "--show", "--workdir", str(tmp_path)]) == 2
+    assert "missing" in capsys.readouterr().err
 
 
 def test_datagen_writes_a_dataset_and_its_manifest(tmp_path, capsys):
@@ -38,3 +46,15 @@ def test_datagen_writes_a_dataset_and_its_manifest(tmp_path, capsys):
     assert manifest["scene"]["name"] == "paper"
     assert manifest["rows"] == 500
     assert (tmp_path / "paper.npz").stat().st_size > 0
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--bundle", "/nonexistent/bundle"], "no bundle at /nonexistent/bundle"),
+    (["--rows", "0"], "--rows must be >= 1"),
+    (["--seed", "-1"], "--seed must be >= 0"),
+    (["--scene", "no_such_scene"], "no_such_scene"),
+])
+def test_evaluate_rejects_bad_arguments_with_status_2(tmp_path, capsys, extra, message):
+    assert main(["evaluate", "--out", str(tmp_path), "--quick", *extra]) == 2
+    assert message in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())  # nothing written

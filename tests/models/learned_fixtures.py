@@ -2,9 +2,10 @@
 
 The MLPs are fitted in closed form so that their answers mean something: one random tanh
 hidden layer (fixed), then a ridge least-squares output layer ("extreme learning machine"),
-on exact-solver data of small box pairs. The classifier regresses one-hot region targets
-(scaled into confident logits); each region's K experts regress ``contact-v1`` with
-different random hidden layers, so that their spread is real.
+on exact-solver data of small box pairs. The region classifier is the exact labeller (nothing
+to fit); each region's K experts regress ``contact-v1`` with different random hidden layers,
+so that their spread is real; they learn the residual of the point from the labeller's
+unclipped point, as trained experts do.
 """
 from __future__ import annotations
 
@@ -15,7 +16,9 @@ import numpy as np
 from models import canonical as cn
 from models.bundles import write_bundle
 from models.mlp import MLP, MLPSpec
+from models.region_label import unclipped_points
 from training.datagen import generate_pairs
+from training.pair_data import INPUT_KEYS
 
 #: Pairs of the test bundle: distinct sizes (so that swapped requests occur) and a cube pair.
 PAIRS = {"brick/slab": ([1.0, 0.6, 0.4], [2.0, 1.5, 0.3]),
@@ -23,14 +26,13 @@ PAIRS = {"brick/slab": ([1.0, 0.6, 0.4], [2.0, 1.5, 0.3]),
 ROWS = 12000  # labelled rows per pair
 HIDDEN = 48  # random hidden units per network
 K = 3  # experts per region
-MIN_REGION_ROWS = 40  # rarer regions get no class (their rows count as misclassified)
+MIN_REGION_ROWS = 40  # rarer regions get no committee (the exact solver answers them)
 RIDGE = 1e-3  # ridge penalty of the least-squares fits (dimensionless, inputs normalised)
-LOGIT_GAIN = 8.0  # one-hot fit outputs times this = logits
 AUTO = {"confidence_min": 0.6, "normal_spread_max_deg": 8.0, "point_spread_max": 0.05,
         "depth_margin": 0.02}
 
 
-def _elm(x, targets, seed, hidden=HIDDEN, classifier=False):
+def _elm(x, targets, seed, hidden=HIDDEN, outputs=cn.OUTPUTS_VERSION):
     """A 12-hidden-out tanh MLP: random first layer, ridge least-squares second layer."""
     rng = np.random.default_rng(seed)
     in_mean, in_scale = x.mean(0), x.std(0) + 0.05
@@ -38,17 +40,13 @@ def _elm(x, targets, seed, hidden=HIDDEN, classifier=False):
     b0 = rng.normal(size=hidden) * 0.3
     h = np.tanh(((x - in_mean) / in_scale) @ w0.T + b0)
     h1 = np.column_stack([h, np.ones(len(h))])
-    if classifier:
-        out_mean, out_scale = np.zeros(targets.shape[1]), np.ones(targets.shape[1])
-    else:
-        out_mean, out_scale = targets.mean(0), targets.std(0) + 1e-3
+    out_mean, out_scale = targets.mean(0), targets.std(0) + 1e-3
     t = (targets - out_mean) / out_scale
     solution = np.linalg.solve(h1.T @ h1 + RIDGE * len(h1) * np.eye(hidden + 1), h1.T @ t)
-    gain = LOGIT_GAIN if classifier else 1.0
     spec = MLPSpec("tanh", (x.shape[1], hidden, targets.shape[1]), cn.FEATURES_VERSION,
-                   "region-logits" if classifier else cn.OUTPUTS_VERSION)
-    return MLP(spec, [w0, gain * solution[:-1].T], [b0, gain * solution[-1]], in_mean,
-               in_scale, out_mean, out_scale)
+                   outputs)
+    return MLP(spec, [w0, solution[:-1].T], [b0, solution[-1]], in_mean, in_scale, out_mean,
+               out_scale)
 
 
 def fit_pair(key, size_a, size_b, seed=0):
@@ -58,27 +56,29 @@ def fit_pair(key, size_a, size_b, seed=0):
     x, keys = data.features.astype(np.float64), data.keys
     names, counts = np.unique(keys, return_counts=True)
     frequent = [str(k) for k, c in sorted(zip(names, counts), key=lambda kc: -kc[1])
-                if c >= MIN_REGION_ROWS and k != cn.NONE_KEY]
+                if c >= MIN_REGION_ROWS and k != cn.NONE_KEY
+                and not str(k).startswith("edge-edge:")]  # edge-edge: the point is exact
     regions = [cn.NONE_KEY] + frequent
     tag = key.replace("/", "_")
     mlps = {}
-    known = np.isin(keys, regions)
-    onehot = (keys[known][:, None] == np.array(regions)[None]).astype(np.float64)
-    mlps[f"{tag}.classifier"] = _elm(x[known], onehot, seed + 1, classifier=True)
     hit = rows["colliding"]
     mlps[f"{tag}.single"] = _elm(x[hit], data.targets[hit].astype(np.float64), seed + 2)
+    residual = data.targets.astype(np.float64)
+    unclipped = cn.learning_arrays({**rows, "point": unclipped_points(
+        *(rows[k] for k in INPUT_KEYS))}).targets[:, :3]
+    residual[:, :3] -= unclipped
     experts = {}
     for r, region in enumerate(frequent):
         mine = keys == region
         experts[region] = []
         for k in range(K):
             name = f"{tag}.expert{r}.{k}"
-            mlps[name] = _elm(x[mine], data.targets[mine].astype(np.float64),
-                              seed + 100 + 10 * r + k, hidden=24)
+            mlps[name] = _elm(x[mine], residual[mine], seed + 100 + 10 * r + k, hidden=24,
+                              outputs=cn.EXPERT_OUTPUTS_VERSION)
             experts[region].append(name)
     entry = {"size_a": list(size_a), "size_b": list(size_b), "depth_fraction": [0.0, 0.01],
              "single": f"{tag}.single",
-             "classifier": {"mlp": f"{tag}.classifier", "regions": regions},
+             "classifier": {"labeller": cn.REGION_LABELLER, "regions": regions},
              "experts": experts, "auto": dict(AUTO), "validation": {}}
     return entry, mlps
 

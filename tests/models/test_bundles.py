@@ -18,18 +18,19 @@ REGIONS = ["none", "face-vertex:0:18", "edge-edge:6:6"]
 def content(seed=0, k=2):
     """(manifest, tensors) of a one-pair bundle of random MLPs."""
     mlps = {"p.single": random_mlp((12, 16, 7), seed=seed),
-            "p.classifier": random_mlp((12, 16, len(REGIONS)), seed=seed + 1, classifier=True)}
+            "p.logits": random_mlp((12, 16, 3), seed=seed + 1, classifier=True)}
     experts = {}
     for r, region in enumerate(REGIONS[1:]):
         experts[region] = [f"p.e{r}.{i}" for i in range(k)]
         for i, name in enumerate(experts[region]):
-            mlps[name] = random_mlp((12, 8, 7), "relu", seed=seed + 10 + 3 * r + i)
+            mlps[name] = random_mlp((12, 8, 7), "relu", seed=seed + 10 + 3 * r + i,
+                                    outputs="contact-residual-v1")
     manifest = {
         "version": f"test-{seed}", "scene": {"name": "t", "hash": "ab" * 32},
         "mlps": {name: m.spec.to_dict() for name, m in mlps.items()},
         "pairs": {"a/b": {"size_a": [1.0, 2.0, 3.0], "size_b": [2.0, 2.0, 2.0],
                           "depth_fraction": [0.0, 0.01], "single": "p.single",
-                          "classifier": {"mlp": "p.classifier", "regions": REGIONS},
+                          "classifier": {"labeller": "exact-sat-v1", "regions": REGIONS},
                           "experts": experts,
                           "auto": {"confidence_min": 0.9, "normal_spread_max_deg": 0.5,
                                    "point_spread_max": 0.01, "depth_margin": 0.002}}}}
@@ -51,7 +52,7 @@ def test_round_trip_gives_identical_outputs(written):
     bundle = read_bundle(folder)
     assert bundle.version == "test-0" and bundle.path == folder
     assert bundle.manifest["pairs"] == manifest["pairs"]
-    assert bundle.manifest["format"] == bd.FORMAT and bundle.manifest["format_version"] == 1
+    assert bundle.manifest["format"] == bd.FORMAT and bundle.manifest["format_version"] == 2
     x = np.random.default_rng(0).normal(size=(100, 12))
     for name, model in mlps.items():
         np.testing.assert_array_equal(bundle.mlps[name](x), model(x))
@@ -103,12 +104,17 @@ def test_missing_and_extra_files_are_refused(written):
     (lambda m: m["pairs"]["a/b"]["experts"]["edge-edge:6:6"].append("p.gone"), "no MLP"),
     (lambda m: m["pairs"]["a/b"]["experts"].pop("edge-edge:6:6"), "one committee per region"),
     (lambda m: m["pairs"]["a/b"]["classifier"]["regions"].reverse(), "'none' first"),
-    (lambda m: m["pairs"]["a/b"].update(single="p.classifier"), "3 outputs, needs 7"),
+    (lambda m: m["pairs"]["a/b"].update(single="p.logits"), "3 outputs, needs 7"),
+    (lambda m: m["pairs"]["a/b"].update(single="p.e0.0"), "must give contact-v1"),
+    (lambda m: m["pairs"]["a/b"]["experts"]["edge-edge:6:6"].append("p.single"),
+     "must give contact-residual-v1"),
+    (lambda m: m["pairs"]["a/b"]["classifier"].update(labeller="mlp"), "not 'exact-sat-v1'"),
+    (lambda m: m["pairs"]["a/b"]["classifier"].update(mlp="p.logits"), "'labeller', 'regions'"),
     (lambda m: m["mlps"]["p.single"].update(layers=[12, 17, 7]), "shape"),
     (lambda m: m["mlps"].pop("p.single"), "no declared MLP"),
     (lambda m: m["pairs"]["a/b"].update(depth_fraction=[0.1, 0.0]), "depth_fraction"),
     (lambda m: m["pairs"]["a/b"]["auto"].pop("depth_margin"), "auto"),
-    (lambda m: m.update(format_version=2), "version 1"),
+    (lambda m: m.update(format_version=1), "version 2"),
     (lambda m: m.update(format="zip"), "impactnet-bundle"),
 ])
 def test_inconsistent_manifests_are_refused(written, change, message):

@@ -12,10 +12,11 @@ from models.mlp import MLPStack
 FORWARD_RTOL = 2e-5
 
 
-def random_mlp(layers, activation="tanh", seed=0, classifier=False) -> mm.MLP:
+def random_mlp(layers, activation="tanh", seed=0, classifier=False,
+               outputs="contact-v1") -> mm.MLP:
     """An MLP with torch-like initialisation and non-trivial normalisations."""
     rng = np.random.default_rng(seed)
-    spec = mm.MLPSpec(activation, tuple(layers))
+    spec = mm.MLPSpec(activation, tuple(layers), outputs=outputs)
     weights = [rng.uniform(-1, 1, (o, i)) / np.sqrt(i) for i, o in zip(layers[:-1], layers[1:])]
     biases = [rng.uniform(-0.1, 0.1, o) for o in layers[1:]]
     n_out = layers[-1]

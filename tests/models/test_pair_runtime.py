@@ -1,27 +1,32 @@
-"""The committee's kernels (decide, member_stats), region tables and pair dispatch."""
+"""The committee's kernel (member_stats), region tables and lookup, and pair dispatch."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from helpers import KEYS
+from test_mlp import random_mlp
 
 from models import contacts as ct
+from models.bundles import Bundle, PairModels
+from models.canonical import REGION_LABELLER
 from models.exact import box_box
 from models.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UNSUPPORTED, PairTable, groups, unswap
-from models.pair_runtime import decide, member_stats, region_axis
+from models.pair_runtime import PairRuntime, member_stats, region_axis
 from training.datagen import generate_pairs
 
 
-def test_decide_is_argmax_and_softmax():
-    rng = np.random.default_rng(0)
-    logits = (rng.normal(size=(500, 40)) * 4).astype(np.float32)
-    logits[7] -= 200.0  # a row far below the block's top: computed with its own shift
-    logits[9, 3] = 300.0  # and one far above every other row
-    region, confidence = decide(logits.copy())
-    np.testing.assert_array_equal(region, logits.argmax(1))
-    reference = 1.0 / np.exp(logits.astype(np.float64) - logits.max(1, keepdims=True)).sum(1)
-    np.testing.assert_allclose(confidence, reference, rtol=1e-5)
-    assert decide(np.zeros((0, 5), np.float32))[0].shape == (0,)
+def test_region_lookup_finds_committee_regions_and_flags_the_rest():
+    models = PairModels("a/b", (1.0, 2.0, 3.0), (2.0, 2.0, 2.0), (0.0, 0.01), None,
+                        REGION_LABELLER, ("none", "face-vertex:0:18", "edge-edge:6:10"),
+                        {"face-vertex:0:18": ("e",), "edge-edge:6:10": ("e", "e")})
+    pair = PairRuntime(models, Bundle({}, {"e": random_mlp((12, 8, 7))}, {}))
+    code = np.array([ct.NONE, ct.FACE_VERTEX, ct.EDGE_EDGE, ct.FACE_VERTEX, ct.EDGE_EDGE],
+                    np.int8)
+    feature_a = np.array([-1, 0, 6, 1, 10], np.int8)
+    feature_b = np.array([-1, 18, 10, 18, 6], np.int8)
+    np.testing.assert_array_equal(pair.region_of(code, feature_a, feature_b), [0, 1, 2, -1, -1])
+    assert pair.region_dict[(ct.EDGE_EDGE, 6, 10)] == 2
+    assert pair.supports("committee") and not pair.supports("auto")
 
 
 @pytest.mark.parametrize("k", [1, 2, 3, 5])

@@ -87,7 +87,8 @@ def test_world_block_inverts_the_targets(rows):
     for s, frame in zip(range(0, inputs.n, pc.ROW_BLOCK), frames):
         e = min(inputs.n, s + pc.ROW_BLOCK)
         columns = np.ascontiguousarray(targets[s:e].T)
-        pc.world_block(columns, frame, inputs, s, e, scale, point[s:e], normal[s:e])
+        pc.world_block(columns, frame, pc.block_rows(inputs.position_a, s, e), scale, point[s:e],
+                       normal[s:e])
     hit = rows["colliding"] & ~(np.abs(pose.translation) < 1e-5 * scale).any(1)
     np.testing.assert_allclose(normal[hit], rows["normal"][hit], atol=2e-6)
     np.testing.assert_allclose(point[hit], rows["point"][hit], atol=2e-6 * scale + 1e-10 * 1e5)
@@ -99,7 +100,7 @@ def test_short_normals_fall_back():
     inputs, _, frames = column_features([np.atleast_2d(a) for a in args])
     columns = np.zeros((7, 1), np.float32)
     point, normal = np.empty((1, 3)), np.empty((1, 3))
-    pc.world_block(columns, frames[0], inputs, 0, 1, 1.0, point, normal)
+    pc.world_block(columns, frames[0], inputs.position_a[:1], 1.0, point, normal)
     np.testing.assert_allclose(normal[0], cn.FALLBACK_NORMAL, atol=1e-6)
     assert np.isfinite(point).all()
 

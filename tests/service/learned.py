@@ -11,6 +11,8 @@ import copy
 import functools
 from pathlib import Path
 
+import numpy as np
+
 from models.scenes import load_scene
 from tests.models.learned_fixtures import bundle_content, write_test_bundle
 
@@ -57,20 +59,25 @@ def write_scene(folder: Path, text: str = SCENE_TOML) -> Path:
     return path
 
 
+#: Shift of every MLP's output mean in the nonsense bundle (outputs in units of L).
+NONSENSE_SHIFT = np.float32(3.0)
+
+
 @functools.lru_cache(maxsize=1)
 def _content():
     return bundle_content(seed=0)
 
 
 def write_bundle(folder: Path, scene_path: Path, version: str = "svc-test-1",
-                 scene_hash: str | None = None, negate_outputs: bool = False) -> Path:
+                 scene_hash: str | None = None, nonsense_outputs: bool = False) -> Path:
     """The test bundle for the scene at ``scene_path`` (or with another ``scene_hash``),
-    with manifest version ``version``, written to ``folder``. ``negate_outputs``: every
-    MLP's output layer negated, a well-formed bundle (checksums fine) that answers nonsense
-    and fails the smoke test."""
+    with manifest version ``version``, written to ``folder``. ``nonsense_outputs``: every
+    MLP's outputs shifted by 3 (points 3 L away), a well-formed bundle (checksums fine) that
+    answers nonsense and fails the smoke test."""
     manifest, tensors = _content()
-    if negate_outputs:
-        tensors = {k: (-v if k.endswith((".w1", ".b1")) else v) for k, v in tensors.items()}
+    if nonsense_outputs:
+        tensors = {k: (v + NONSENSE_SHIFT if k.endswith(".out_mean") else v)
+                   for k, v in tensors.items()}
     manifest = copy.deepcopy(manifest)
     scene = load_scene(scene_path)
     manifest["scene"] = {"name": scene.name, "hash": scene_hash or scene.hash()}

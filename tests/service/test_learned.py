@@ -253,7 +253,7 @@ def test_a_bundle_that_cannot_serve_exits_2_at_startup(files, capsys, case, mess
     elif case == "corrupt":
         corrupt(write_bundle(folder, files["scene"]))
     elif case == "smoke":
-        write_bundle(folder, files["scene"], negate_outputs=True)
+        write_bundle(folder, files["scene"], nonsense_outputs=True)
     argv = ["--scene", str(files["scene"]), "--bundle", str(folder)]
     if case == "mode":
         argv = ["--scene", str(files["scene"]), "--bundle", "none", "--default-mode", "single"]

@@ -142,7 +142,7 @@ def test_a_bad_bundle_is_refused_and_the_old_keeps_serving(admin, files, tmp_pat
     elif case == "scene_hash":
         write_bundle(folder, files["scene"], version="svc-bad", scene_hash="a" * 64)
     elif case == "smoke":
-        write_bundle(folder, files["scene"], version="svc-bad", negate_outputs=True)
+        write_bundle(folder, files["scene"], version="svc-bad", nonsense_outputs=True)
     elif case == "not_a_bundle":
         folder.mkdir()
         (folder / "manifest.json").write_text("{}")

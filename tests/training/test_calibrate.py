@@ -36,7 +36,8 @@ def synthetic(n=40_000, seed=0):
     output = np.zeros((n, 7))
     output[:, 6] = depth
     pred = {"confidence": confidence, "normal_spread_deg": normal_spread,
-            "point_spread": point_spread, "output": output, "region": np.ones(n, int)}
+            "point_spread": point_spread, "output": output, "region": np.ones(n, int),
+            "exact": np.zeros(n, bool)}
     bad_depth = depth > 0.014
     normal_err = np.where((confidence < 0.2) | (normal_spread > 2.0) | bad_depth, 5.0,
                           rng.uniform(0, 0.5, n))
@@ -86,3 +87,18 @@ def test_mismatched_rows_are_never_kept_when_separable():
     assert result["met"]
     keep = auto_keep(scores, result["thresholds"])
     assert np.isfinite(normal_err[keep]).all() and not (keep & bad_depth).any()
+
+
+def test_rows_answered_exactly_are_never_kept():
+    """Rows of a region without a committee go to the exact solver whatever the thresholds:
+    calibration counts them as fallback (an infinite score), never as kept."""
+    n = 1000
+    exact = np.arange(n) % 10 == 0
+    pred = {"confidence": np.ones(n), "normal_spread_deg": np.zeros(n),
+            "point_spread": np.zeros(n), "output": np.zeros((n, 7)), "region": np.ones(n, int),
+            "exact": exact}
+    scores = calibration_scores(pred, (0.0, 0.01))
+    keep = auto_keep(scores, dict(zip(THRESHOLD_NAMES, NO_LIMIT)))
+    np.testing.assert_array_equal(keep, ~exact)
+    result = calibrate(scores, np.zeros(n), np.zeros(n), TARGET)
+    assert result["fallback_share"] == pytest.approx(0.1)

@@ -1,4 +1,4 @@
-"""The stacked torch MLPs: exported members equal the stacked forward; the classifier loss."""
+"""The stacked torch MLPs: exported members equal the stacked forward; column statistics."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,7 +7,6 @@ import torch
 
 from models.mlp import MLP, MLPSpec
 from training.torch_mlp import StackedMLP, column_statistics
-from training.train_committee import classifier_loss
 
 #: Agreement of the inference side's float32 forward pass with torch's, relative to the output
 #: scale: float32 rounding of a few layers (the inference side folds the normalisations).
@@ -44,20 +43,6 @@ def test_groups_are_independent():
         after = model(x)
     assert torch.equal(before[0], after[0]) and torch.equal(before[2], after[2])
     assert not torch.equal(before[1], after[1])
-
-
-def test_classifier_loss_is_cross_entropy_and_uniform_for_unsure_rows():
-    model = StackedMLP(MLPSpec("relu", (3, 4, 5), outputs="region-logits"), 1,
-                       torch.Generator().manual_seed(0))
-    x = torch.randn(1, 6, 3, generator=torch.Generator().manual_seed(2))
-    y = torch.tensor([[0, 4, -1, 2, -1, 1]])
-    with torch.no_grad():
-        loss = classifier_loss(model, x, y)[0]
-        logits = model(x)[0]
-    log_p = torch.log_softmax(logits, dim=1)
-    sure = y[0] >= 0
-    np.testing.assert_allclose(loss[sure], -log_p[sure, y[0][sure]], rtol=1e-5)
-    np.testing.assert_allclose(loss[~sure], -log_p[~sure].mean(dim=1), rtol=1e-5)
 
 
 def test_column_statistics_floor_constant_columns():

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from models import load_predictor
+from models.bundle_store import resolve_bundle
 from models.bundles import read_bundle
 from models.scenes import load_scene
 from training.calibrate import THRESHOLD_NAMES
@@ -33,7 +34,7 @@ def quick_bundle(tmp_path_factory):
 def test_quick_training_writes_a_bundle_that_reads_back(quick_bundle):
     status, out = quick_bundle
     assert status == 0
-    bundle = read_bundle(out)
+    bundle = read_bundle(resolve_bundle(out))  # `out` is a bundle store (current version)
     manifest = bundle.manifest
     scene = load_scene(SCENE)
     assert manifest["scene"] == {"name": SCENE, "hash": scene.hash()}
@@ -51,7 +52,7 @@ def test_quick_training_writes_a_bundle_that_reads_back(quick_bundle):
         assert 0.0 <= figures["auto"]["fallback_share"] <= 1.0
         assert {"committee", "single", "auto"} <= set(figures)
     assert bundle.pairs[PAIR].auto is not None
-    assert not list(out.parent.glob(f".{SCENE}.*"))  # no temporary folder left behind
+    assert not list((out / "versions").glob(".*"))  # no temporary folder left behind
     goals = manifest["figures"]["test"]["goals"]
     assert set(goals) == set(GOALS)
     assert all(isinstance(goal["met"], bool) for goal in goals.values())

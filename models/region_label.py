@@ -1,0 +1,187 @@
+"""The committee's region classifier: the exact solver's own decision, without the clipping.
+
+The region of a contact (contact type, feature of A, feature of B) is decided at tolerance
+scale: on about a quarter of first-contact poses the separating-axis margin is below 1e-4 of
+the pair's size, and the tie rules (1e-12 of the size) pick the axis and the incident feature
+(docs/classifier_study.md). A classifier that is to agree with the exact solver there must
+repeat its float64 arithmetic, so it does, and costs less than a learned one would:
+
+1. the separating-axis test (:func:`models.sat.overlap_columns`, :func:`models.sat.choose_axis`)
+   gives "none", the axis, the depth and the normal, exactly;
+2. for a face axis, the incident face's four vertex depths name the incident feature
+   (:func:`models.manifold.incident_feature`); for a cross axis, the two supporting edges
+   (:func:`models.manifold.edge_contact`).
+
+What is left for the learned experts is the point, whose exact computation (clipping the
+incident face against the reference face, the depth-weighted mean) is the expensive part.
+:func:`label_block` is the batch path (columns, as :mod:`models.exact`), :func:`label_one` the
+N = 1 path in Python floats (as :mod:`models.exact_scalar`); both give the exact solver's
+``colliding``, ``axis``, ``depth``, ``normal``, type and features bit for bit (tested).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from models import box_features as bf
+from models import contacts as ct
+from models import exact_scalar as es
+from models import local_frame as lf
+from models import manifold as mf
+from models import sat
+from models.exact import CHUNK_ROWS, prepare_inputs, unit_quaternions
+
+
+class Labels(NamedTuple):
+    """The exact decision for m pairs (world frame where a frame applies)."""
+
+    colliding: np.ndarray  # (m,) bool
+    axis: np.ndarray  # (m,) int8, separating-axis id 0-14
+    depth: np.ndarray  # (m,) float64, metres (0 where separated)
+    normal: np.ndarray  # (3, m) float64, unit, from A towards B, world frame
+    code: np.ndarray  # (m,) int8, contact type code (models.contacts)
+    feature_a: np.ndarray  # (m,) int8, feature id in A (models.box_features), -1 for none
+    feature_b: np.ndarray  # (m,) int8, feature id in B, -1 for none
+    unclipped: np.ndarray  # (3, m) float64, world frame, metres: the point before clipping
+    # (models.manifold.face_features; an edge-edge contact's exact point; A's centre where
+    # separated)
+
+
+def input_block(inputs, start: int, stop: int) -> np.ndarray:
+    """Rows ``start:stop`` of validated inputs as a (20, m) column block for
+    :func:`label_block`, quaternions normalised as :func:`models.exact.prepare_inputs` does
+    (so that the labels are the exact solver's bit for bit).
+
+    ``inputs``: a :class:`models.pose_columns.Inputs`; its 1-row arrays are broadcast.
+    """
+    m = stop - start
+    block = np.empty((lf.INPUT_ROWS, m))
+    for rows, value in zip(lf.INPUT_SLICES, inputs[:6]):
+        part = value if len(value) == 1 else value[start:stop]
+        if part.shape[1] == 4:
+            part = unit_quaternions(part)
+        block[rows] = part.T
+    return block
+
+
+def label_block(block: np.ndarray) -> Labels:
+    """Exact labels of the m pairs of an input block.
+
+    Parameters
+    ----------
+    block : ndarray, shape (20, m)
+        Input columns of :func:`models.local_frame.input_columns` (float64).
+    """
+    pose, rot_a = lf.local_pose(block)
+    m = block.shape[1]
+    colliding, axis, depth = sat.choose_axis(sat.overlap_columns(pose), pose.scale)
+    normal = sat.oriented_normal(pose, axis)
+    code = np.zeros(m, np.int8)
+    feature_a = np.full(m, bf.NO_FEATURE, np.int8)
+    feature_b = np.full(m, bf.NO_FEATURE, np.int8)
+    unclipped = np.zeros((3, m))  # A's frame
+    face = colliding & (axis < 6)
+    rows = np.flatnonzero(face)
+    if rows.size:
+        ref_is_b = axis[rows] >= 3
+        frame = mf.ReferenceFrame(pose, rows, ref_is_b, axis[rows] % 3)
+        incident, rank, ref_face, point = mf.face_features(frame, pose.scale[rows])
+        code[rows], feature_a[rows], feature_b[rows] = mf.face_labels(ref_is_b, incident, rank,
+                                                                      ref_face)
+        flip = np.flatnonzero(ref_is_b)  # points in B's frame: map them to A's
+        if flip.size:
+            point[:, flip] = lf.b_to_a(pose, rows[flip], point[:, flip])
+        unclipped[:, rows] = point
+    rows = np.flatnonzero(colliding & ~face)
+    if rows.size:
+        unclipped[:, rows], feature_a[rows], feature_b[rows] = mf.edge_contact(
+            pose.take(rows), np.take(normal, rows, axis=1), axis[rows])
+        code[rows] = ct.EDGE_EDGE
+    world = block[lf.INPUT_SLICES[1]] + lf.matvec(rot_a, unclipped)
+    return Labels(colliding, axis.astype(np.int8), depth, lf.matvec(rot_a, normal), code,
+                  feature_a, feature_b, world)
+
+
+def unclipped_points(size_a, position_a, quaternion_a, size_b, position_b,
+                     quaternion_b) -> np.ndarray:
+    """The unclipped points (n, 3) (world frame, metres; see :class:`Labels`) of n pairs,
+    arguments as :func:`models.exact.box_box` (the experts' training targets are the exact
+    point minus this)."""
+    inputs = prepare_inputs(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
+    n = len(inputs[0])
+    out = np.empty((n, 3))
+    for start in range(0, n, CHUNK_ROWS):
+        stop = min(n, start + CHUNK_ROWS)
+        out[start:stop] = label_block(lf.input_columns(inputs, start, stop)).unclipped.T
+    return out
+
+
+def label_one(values) -> tuple:
+    """Exact labels of one validated pair (the lists of :func:`models.exact_scalar.
+    single_pair`): ``(colliding, axis, depth, normal, code, feature_a, feature_b,
+    unclipped)``, the normal and the unclipped point (see :class:`Labels`) as 3 floats in the
+    world frame."""
+    ha, hb, rot, t, rot_a = es.relative_frame(*values)
+    scale = max(ha) + max(hb)
+    over, axes = es.overlaps(ha, hb, rot, t, scale)
+    colliding, axis = es.choose_axis(over, scale)
+    u = axes[axis]
+    sign = es.sgn(es.dot(u, t))
+    normal = [v * sign for v in u]
+    world = es.apply(rot_a, normal)
+    if not colliding:
+        return False, axis, 0.0, world, ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE, list(values[1])
+    depth = max(over[axis], 0.0)
+    if axis < 6:
+        code, feature_a, feature_b, point = _face_labels_one(ha, hb, rot, t, axis, scale)
+    else:
+        point, feature_a, feature_b = es.edge_contact(ha, hb, rot, t, normal, axis)
+        code = ct.EDGE_EDGE
+    pa = values[1]
+    unclipped = [pa[r] + es.dot(rot_a[r], point) for r in range(3)]
+    return True, axis, depth, world, code, feature_a, feature_b, unclipped
+
+
+def _face_labels_one(ha, hb, rot, t, axis, scale):
+    """(type code, feature of A, feature of B, unclipped point in A's frame) of one
+    face-axis contact (as :func:`models.manifold.face_features`)."""
+    h_ref, h_inc, rot_ri, t_ri = es.reference_view(ha, hb, rot, t, axis)
+    ref_axis = axis % 3
+    ref_sign, vertices, signs, depth, face = es.incident_face(h_ref, h_inc, rot_ri, t_ri,
+                                                             ref_axis)
+    tol = mf.SNAP_TOL_REL * scale
+    incident, rank = es.incident_feature(depth, signs, face, tol)
+    ref_face = bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0)
+    u_axis, w_axis = (ref_axis + 1) % 3, (ref_axis + 2) % 3
+    quad = [(v[u_axis], v[w_axis]) for v in vertices]
+    clamped = [(min(max(u, -h_ref[u_axis]), h_ref[u_axis]),
+                min(max(w, -h_ref[w_axis]), h_ref[w_axis])) for u, w in quad]
+    depths = _plane_depth_one(quad, depth, clamped)
+    weights = [max(dc, 0.0) + mf.WEIGHT_FLOOR_REL * scale if d >= -tol else 0.0
+               for d, dc in zip(depth, depths)]
+    total = sum(weights)
+    point = [0.0, 0.0, 0.0]
+    point[ref_axis] = (ref_sign * h_ref[ref_axis]
+                       - ref_sign * 0.5 * sum(w * d for w, d in zip(weights, depths)) / total)
+    point[u_axis] = sum(w * c[0] for w, c in zip(weights, clamped)) / total
+    point[w_axis] = sum(w * c[1] for w, c in zip(weights, clamped)) / total
+    if axis >= 3:
+        point = [t[r] + es.dot(rot[r], point) for r in range(3)]
+        return int(mf.FACE_INC_CODES[rank]), incident, ref_face, point
+    return int(mf.FACE_REF_CODES[rank]), ref_face, incident, point
+
+
+def _plane_depth_one(quad, depth, points):
+    """Depths of the incident face's plane at 4 points (u, w), as
+    :func:`models.manifold.plane_depth`."""
+    (u0, w0), (u1, w1), _, (u3, w3) = quad
+    du1, dw1, dd1 = u1 - u0, w1 - w0, depth[1] - depth[0]
+    du3, dw3, dd3 = u3 - u0, w3 - w0, depth[3] - depth[0]
+    det = du1 * dw3 - du3 * dw1
+    size2 = (du1 * du1 + dw1 * dw1) * (du3 * du3 + dw3 * dw3)
+    if not abs(det) > mf.PLANE_DET_MIN_REL * size2 ** 0.5:
+        return list(depth)
+    grad_u = (dd1 * dw3 - dd3 * dw1) / det
+    grad_w = (du1 * dd3 - du3 * dd1) / det
+    return [depth[0] + grad_u * (u - u0) + grad_w * (w - w0) for u, w in points]

@@ -1,0 +1,139 @@
+"""Retraining jobs (training.train_jobs, `impactnet train`): versioned bundles behind a gate,
+reuse of unchanged pairs, resume after a kill with the same result."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import safetensors.numpy
+
+from models import load_predictor
+from models.bundle_store import REJECTED, VERSIONS, current_version, resolve_bundle
+from models.bundles import WEIGHTS
+from models.scenes import load_scene, scene_path
+from training.pair_cache import PairCache, reprefix
+from training.train import quick_config, train_pairs
+from training.train_jobs import JobConfig, run_train_job
+from training.validation_gate import GateConfig, validation_gate
+
+REPO = Path(__file__).resolve().parents[2]
+#: Seconds a killed training run may take to cache its first pair.
+FIRST_PAIR_TIMEOUT_S = 120
+#: An impossible bound (errors are >= 0): a gate with it always fails.
+IMPOSSIBLE = -1.0
+#: The slow tests are about reuse and resume, not about whether quick models pass the gate.
+NO_GATE = JobConfig(enforce_gate=False)
+
+
+def _weights(store: Path) -> dict:
+    return safetensors.numpy.load_file(str(resolve_bundle(store) / WEIGHTS))
+
+
+def _scene_copy(path: Path, old: str = "", new: str = "") -> Path:
+    """A copy of the quay_crane scene file at ``path``, with one text edit if given."""
+    text = scene_path("quay_crane").read_text()
+    assert old in text
+    path.write_text(text.replace(old, new) if old else text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def paper_store(tmp_path_factory):
+    store = tmp_path_factory.mktemp("jobs") / "paper"
+    outcome = run_train_job(load_scene("paper"), store, quick_config(3), progress=False)
+    return store, outcome
+
+
+def test_a_job_writes_a_version_and_points_current_at_it(paper_store):
+    store, outcome = paper_store
+    assert outcome.published and outcome.gate.passed and outcome.previous is None
+    assert current_version(store) == outcome.version == outcome.path.name
+    assert outcome.path.parent == store / VERSIONS
+    assert outcome.manifest["validation_gate"]["passed"] is True
+    assert load_predictor("auto", store) is not None
+
+
+def test_failing_gate_leaves_current_untouched(paper_store):
+    store, first = paper_store
+    before = current_version(store)
+    job = JobConfig(gate=GateConfig(point_fraction=IMPOSSIBLE))
+    outcome = run_train_job(load_scene("paper"), store, quick_config(3), job, progress=False)
+    assert not outcome.published and not outcome.gate.passed
+    assert current_version(store) == before == first.version
+    assert outcome.path.parent == store / REJECTED  # kept to inspect, never served
+    assert outcome.reused == ["cube/cube"]  # unchanged pair: not retrained
+    assert any("point" in line for line in outcome.gate.failures)
+
+
+def test_gate_checks_the_scene_hash_and_every_pair(paper_store):
+    _, outcome = paper_store
+    manifest = outcome.manifest
+    assert not validation_gate(manifest, load_scene("quay_crane")).passed
+    assert validation_gate(manifest, load_scene("paper")).passed
+    strict = validation_gate(manifest, load_scene("paper"), GateConfig(normal_deg=IMPOSSIBLE))
+    assert not strict.passed and strict.failures
+
+
+def test_cached_pairs_are_renamed_when_a_pair_moves(tmp_path):
+    scene = load_scene("paper")
+    cache = PairCache(tmp_path)
+    result = train_pairs(scene, quick_config(1), False, cache=cache)[0]
+    moved = reprefix(result, 0, 7)
+    assert all(name.startswith("p7_") for name in moved.mlps)
+    assert {k.split(".")[0] for k in moved.tensors} == set(moved.mlps)
+    assert moved.block["single"] == "p7_single"
+    again = cache.get(scene, 0, quick_config(1).pair)
+    for key, value in result.tensors.items():
+        np.testing.assert_array_equal(again.tensors[key], value)
+
+
+def _cli(scene: Path, store: Path) -> list[str]:
+    return [sys.executable, "-m", "impactnet", "train", "--scene", str(scene), "--out",
+            str(store), "--seed", "5", "--quick", "--no-progress", "--no-gate"]
+
+
+@pytest.mark.slow
+def test_a_killed_run_resumes_with_the_same_result(tmp_path):
+    scene_file = _scene_copy(tmp_path / "scene.toml")
+    reference = tmp_path / "reference"
+    run_train_job(load_scene(scene_file), reference, quick_config(5), NO_GATE, progress=False)
+    store = tmp_path / "store"
+    process = subprocess.Popen(_cli(scene_file, store), cwd=REPO, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + FIRST_PAIR_TIMEOUT_S
+    while not list(store.glob(".cache/pairs/*/entry.json")):
+        assert process.poll() is None and time.monotonic() < deadline, "no pair was cached"
+        time.sleep(0.01)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    assert current_version(store) is None  # killed before publishing: nothing is current
+    done = subprocess.run(_cli(scene_file, store), cwd=REPO, capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "reused from" in done.stderr  # the finished pairs were not trained again
+    ref, resumed = _weights(reference), _weights(store)
+    assert ref.keys() == resumed.keys()
+    for key, value in ref.items():
+        np.testing.assert_array_equal(resumed[key], value, err_msg=key)
+
+
+@pytest.mark.slow
+def test_a_scene_edit_retrains_only_the_changed_pair(tmp_path):
+    store = tmp_path / "store"
+    first = run_train_job(load_scene(_scene_copy(tmp_path / "scene.toml")), store,
+                          quick_config(5), NO_GATE, progress=False)
+    scene = load_scene(_scene_copy(tmp_path / "edited.toml", "size = [2.0, 2.0, 2.0]",
+                                   "size = [2.5, 2.0, 2.0]"))
+    second = run_train_job(scene, store, quick_config(5), NO_GATE, progress=False)
+    changed = [p.key for p in scene.pairs if "cube" in p.key]
+    assert changed == ["cube/cube"]
+    assert sorted(second.reused) == sorted(p.key for p in scene.pairs if p.key not in changed)
+    assert second.published and second.previous == first.version
+    assert current_version(store) == second.version
+    assert second.manifest["pairs"]["cube/cube"]["size_a"] == [2.5, 2.0, 2.0]
