@@ -7,6 +7,9 @@ Layout of a store folder (what ``impactnet train`` and ``impactnet sweep`` write
     <store>/rejected/<version>/   bundles that failed their validation gate (kept to inspect)
     <store>/.cache/               per-pair training cache of the training side (not a bundle)
 
+``.cache/`` and ``rejected/`` are git- and Docker-ignored: a committed store is ``current`` and
+``versions/``.
+
 The pointer is a small text file, not a symlink, so that a store survives git, wheels, zip
 files and Docker ``COPY`` unchanged on every platform. It moves atomically
 (:func:`set_current`: write a temporary file, fsync, ``os.replace``, fsync the folder), so a

@@ -142,6 +142,11 @@ class PairCache:
     def __init__(self, root) -> None:
         self.root = Path(root)
 
+    @property
+    def label(self) -> str:
+        """Where a reused pair comes from, for messages."""
+        return str(self.root)
+
     def get(self, scene: Scene, index: int, config: PairTrainConfig) -> PairResult | None:
         """The cached result of the pair, renamed for ``index``; None where there is none."""
         folder = self.root / pair_key(scene, index, config)

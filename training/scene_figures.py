@@ -4,7 +4,9 @@ Per-pair figures live in each pair's manifest block; the goals are stated for th
 held-out test set as a whole, so :func:`pooled_figures` pools the per-row errors of all pairs
 (:func:`row_record` keeps what is needed of one pair's test rows) and compares them with
 :data:`GOALS`. :func:`reevaluate` rebuilds the records of a written bundle from the same seeded
-data (for bundles trained before the records were kept, or to check one).
+data (for bundles trained before the records were kept, or to check one), and
+:func:`reevaluate_pair` those of one pair (a pair reused from a bundle,
+:mod:`training.bundle_reuse`).
 """
 from __future__ import annotations
 
@@ -74,19 +76,40 @@ def pooled_figures(records: list[dict]) -> dict:
     return figures
 
 
+def reevaluate_pair(scene: Scene, index: int, mlps: dict, block: dict, config) -> dict:
+    """Row record of the test split of ``scene.pairs[index]`` under written models.
+
+    The pair's data is regenerated from its seed (as :func:`training.train_pair.train_pair` made
+    it) and its test rows are evaluated again; for models that training wrote, the record equals
+    the one training kept, bit for bit.
+
+    Parameters
+    ----------
+    scene : Scene
+    index : int
+        The pair's index in ``scene``.
+    mlps : dict
+        Name -> the inference side's MLP (:attr:`models.bundles.Bundle.mlps`), at least the
+        networks that ``block`` names.
+    block : dict
+        The pair's manifest block (``single``, ``classifier``, ``experts``, ``auto``).
+    config : training.train_pair.PairTrainConfig
+        The config the pair was trained with (its seed and data settings).
+    """
+    pair = scene.pairs[index]
+    size_a, size_b = scene.pair_sizes()[index]
+    data = make_pair_data(size_a, size_b, pair_seed(config.seed, pair), scene.depth_fraction,
+                          config.data, config.datagen)
+    pred = evaluate_rows(data, "test", mlps, block, block["single"])
+    keep = auto_keep(calibration_scores(pred, data.depth_fraction), block["auto"])
+    return row_record(pred, keep)
+
+
 def reevaluate(scene: Scene, bundle_path, config) -> list[dict]:
     """Row records of every pair's test split of a written bundle, from the seeded data.
 
     ``config`` is the :class:`training.train_pair.PairTrainConfig` the bundle was trained with.
     """
     bundle = read_bundle(bundle_path)
-    records = []
-    for index, pair in enumerate(scene.pairs):
-        block = bundle.manifest["pairs"][pair.key]
-        size_a, size_b = scene.pair_sizes()[index]
-        data = make_pair_data(size_a, size_b, pair_seed(config.seed, pair),
-                              scene.depth_fraction, config.data, config.datagen)
-        pred = evaluate_rows(data, "test", bundle.mlps, block, block["single"])
-        keep = auto_keep(calibration_scores(pred, data.depth_fraction), block["auto"])
-        records.append(row_record(pred, keep))
-    return records
+    return [reevaluate_pair(scene, index, bundle.mlps, bundle.manifest["pairs"][pair.key],
+                            config) for index, pair in enumerate(scene.pairs)]

@@ -92,28 +92,41 @@ def _train_missing(scene: Scene, config: TrainConfig, indices: list[int], progre
             done(futures[future], future.result())
 
 
+def _reuse(scene: Scene, config: TrainConfig, indices: list[int], sources: list,
+           reused: dict[str, str] | None) -> dict[int, PairResult]:
+    """The pairs of ``indices`` that a source (cache, then bundle) has: index -> result."""
+    results = {}
+    for index in indices:
+        for source in sources:
+            hit = source.get(scene, index, config.pair)
+            if hit is not None:
+                results[index] = hit
+                if reused is not None:
+                    reused[hit.key] = source.label
+                _log(f"{hit.key} unchanged (same sizes, data and training settings): reused "
+                     f"from {source.label}")
+                break
+    return results
+
+
 def train_pairs(scene: Scene, config: TrainConfig, progress: bool | None = None,
                 pairs: list[int] | None = None, cache: PairCache | None = None,
-                reused: list[str] | None = None, reuse: bool = True) -> list[PairResult]:
+                reused: dict[str, str] | None = None, reuse: bool = True,
+                bundle=None) -> list[PairResult]:
     """Train the pairs ``pairs`` (default: all) of a scene, in scene order of the result.
 
     With a ``cache`` (:class:`training.pair_cache.PairCache`), a pair whose entry exists is
-    reused instead of trained (said on stderr, and its key appended to ``reused``), and every
-    trained pair is stored as soon as it finishes: an interrupted run loses at most the pairs
-    in progress, and its rerun resumes from the finished ones with the same result.
-    ``reuse=False`` trains every pair and only refreshes the cache.
+    reused instead of trained (said on stderr, and ``reused[key]`` names where it came from),
+    and every trained pair is stored as soon as it finishes: an interrupted run loses at most
+    the pairs in progress, and its rerun resumes from the finished ones with the same result.
+    A ``bundle`` (:class:`training.bundle_reuse.BundleSource`) is asked for the pairs that the
+    cache lacks; what it gives is not cached. ``reuse=False`` trains every pair and only
+    refreshes the cache.
     """
     indices = list(range(len(scene.pairs))) if pairs is None else list(pairs)
     show = sys.stderr.isatty() if progress is None else progress
-    results: dict[int, PairResult] = {}
-    for index in indices if cache is not None and reuse else []:
-        hit = cache.get(scene, index, config.pair)
-        if hit is not None:
-            results[index] = hit
-            if reused is not None:
-                reused.append(hit.key)
-            _log(f"{hit.key} unchanged (same sizes, data and training settings): reused from "
-                 f"{cache.root}")
+    sources = [s for s in (cache, bundle) if s is not None] if reuse else []
+    results = _reuse(scene, config, indices, sources, reused)
     missing = [i for i in indices if i not in results]
     with tqdm(total=len(missing), desc=f"train {scene.name}", unit="pair", disable=not show,
               file=sys.stderr, dynamic_ncols=True) as bar:

@@ -5,11 +5,12 @@
                     [--no-gate] [--max-fallback-share F] [--keep N]
 
 Trains the learned models of the scene's pairs into a new version of the bundle store ``--out``
-(:mod:`training.train_jobs`): unchanged pairs are reused from the per-pair cache (said on
-stderr), a rerun after an interruption resumes from the finished pairs, and the ``current``
-pointer moves to the new version only when it passes the validation gate
-(:mod:`training.validation_gate`: the scene's p99 tolerances on every pair's held-out test
-split). Prints one line per pair (test figures), the gate's verdict and the wall time.
+(:mod:`training.train_jobs`): unchanged pairs are reused from the per-pair cache, or where it
+has none from the store's current bundle (said on stderr), a rerun after an interruption
+resumes from the finished pairs, and the ``current`` pointer moves to the new version only
+when it passes the validation gate (:mod:`training.validation_gate`: the scene's p99
+tolerances on every pair's held-out test split). Prints one line per pair (test figures),
+the gate's verdict and the wall time.
 
 Exit status: 0 published; 2 bad scene or arguments; 3 the gate refused the new version
 (``current`` untouched); 130 interrupted (finished pairs cached: rerun to resume).
@@ -43,7 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="pairs trained in parallel processes (default: 2; quick: 1)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     parser.add_argument("--no-reuse", action="store_true",
-                        help="retrain every pair, even unchanged ones (the cache is refreshed)")
+                        help="retrain every pair, even unchanged ones: nothing is taken from "
+                             "the cache or the current bundle (the cache is refreshed)")
     parser.add_argument("--cache", default=None,
                         help="per-pair cache folder (default: <out>/.cache/pairs)")
     parser.add_argument("--no-gate", action="store_true",

@@ -42,12 +42,12 @@ from training.train_single import contact_loss, loss_weights, output_tolerances
 class CommitteeConfig:
     """Architecture and training of a pair's experts."""
 
-    expert_hidden: tuple[int, ...] = (16, 16)  # expert hidden widths (bundle size: ~500
-    # regions x 3 members in the default scene; 20-20 made 6.8 MB)
+    expert_hidden: tuple[int, ...] = (24, 24)  # expert hidden widths (bundle size: about
+    # 220 face regions x 3 members in the default scene, ~1.1k parameters each)
     expert_activation: str = "tanh"  # expert hidden activation (smooth regression)
     members: int = 3  # K experts per region
     expert_fit: FitConfig = field(default_factory=lambda: FitConfig(
-        batch_size=256, steps_per_epoch=200, max_epochs=45, patience=45,
+        batch_size=256, steps_per_epoch=200, max_epochs=80, patience=80,
         learning_rate=3e-3, val_rows=4096))  # experts' optimisation (all groups at once)
     expert_aux_weight: float = 0.1  # loss weight of the normal and depth columns relative
     # to the point's (they are auxiliary: inference takes both from the exact labeller)

@@ -9,7 +9,11 @@ Stages of :func:`run_train_job`:
    settings, training config, seed and training code are unchanged is reused (said on stderr),
    the others are trained, and each finished pair is cached at once. A rerun after Ctrl-C or a
    killed process therefore resumes from the finished pairs, and since every pair's training is
-   deterministic for its seed, the result equals that of an uninterrupted run.
+   deterministic for its seed, the result equals that of an uninterrupted run. A pair the cache
+   lacks (a fresh clone ships the store without its cache) is taken from the store's current
+   bundle where it is unchanged there (:mod:`training.bundle_reuse`: same sizes, depth range,
+   accuracy, training config, impactnet version and bundle format), said as ``reused from
+   bundle <version>``.
 3. Gate: :func:`training.validation_gate.validation_gate` on the new manifest; its verdict is
    stored in the manifest (``validation_gate``).
 4. Write: the bundle goes to ``versions/<version>/`` when it passed (or the gate is not
@@ -38,6 +42,7 @@ from models.bundle_store import (
 from models.bundles import MANIFEST, BundleError, read_bundle, write_bundle
 from models.predictors import load_predictor
 from models.scenes import Scene
+from training.bundle_reuse import open_current
 from training.pair_cache import PairCache
 from training.train import TrainConfig, build_manifest, train_pairs
 from training.validation_gate import GateConfig, GateResult, validation_gate
@@ -54,7 +59,8 @@ KEEP_REJECTED = 2
 class JobConfig:
     """What a retraining job does around the training itself."""
 
-    reuse: bool = True  # reuse cached pairs (False: retrain all; the cache is still refreshed)
+    reuse: bool = True  # reuse unchanged pairs from the cache or the current bundle (False:
+    # retrain all; the cache is still refreshed)
     cache_dir: Path | None = None  # per-pair cache folder; None: <out>/.cache/pairs
     gate: GateConfig = field(default_factory=GateConfig)  # the validation gate's bounds
     enforce_gate: bool = True  # False (--no-gate): publish even a bundle that fails the gate
@@ -72,7 +78,9 @@ class JobOutcome:
     gate: GateResult  # the validation gate's verdict
     published: bool  # ``current`` now names the new version
     previous: str | None  # the version ``current`` named before the job
-    reused: list[str] = field(default_factory=list)  # pair keys taken from the cache
+    reused: list[str] = field(default_factory=list)  # pair keys reused (cache or bundle)
+    reused_from: dict[str, str] = field(default_factory=dict)  # pair key -> cache folder or
+    # "bundle <version>"
     pruned: list[str] = field(default_factory=list)  # versions deleted by pruning
 
 
@@ -129,11 +137,14 @@ def run_train_job(scene: Scene, out, config: TrainConfig | None = None,
     _adopt_legacy(store)
     previous = current_version(store)
     cache = PairCache(job.cache_dir if job.cache_dir is not None else store / CACHE_SUBDIR)
-    start, reused = time.perf_counter(), []
-    results = train_pairs(scene, config, progress, cache=cache, reused=reused, reuse=job.reuse)
+    bundle = open_current(store, config.pair) if job.reuse else None
+    start, reused = time.perf_counter(), {}
+    results = train_pairs(scene, config, progress, cache=cache, reused=reused, reuse=job.reuse,
+                          bundle=bundle)
     tensors = {k: v for r in results for k, v in r.tensors.items()}
     manifest = build_manifest(scene, results, config, out, tensors, time.perf_counter() - start)
     manifest["training"]["reused_pairs"] = list(reused)
+    manifest["training"]["reused_from"] = dict(reused)
     manifest.update(annotate or {})
     gate = validation_gate(manifest, scene, job.gate)
     manifest["validation_gate"] = {**gate.to_dict(), "enforced": job.enforce_gate}
@@ -146,4 +157,4 @@ def run_train_job(scene: Scene, out, config: TrainConfig | None = None,
         _publish(store, path, version)
     pruned = prune(store, job.keep_versions) + prune(store, job.keep_rejected, REJECTED)
     return JobOutcome(version, path, read_bundle(path).manifest, gate, accepted, previous,
-                      reused, pruned)
+                      list(reused), dict(reused), pruned)

@@ -16,6 +16,17 @@ from tests.service.conftest import PAIR, REPO, ServerProcess
 
 # What docker/Dockerfile copies into the build stage.
 COPIED = ["pyproject.toml", "README.md", "impactnet", "models", "training", "service"]
+# Folders of a bundle store that docker/Dockerfile.dockerignore leaves out of the build context.
+STORE_EXCLUDED = (".cache", "rejected")
+_IGNORED = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info", "build")
+
+
+def _ignore(folder: str, names: list[str]) -> set[str]:
+    """What the Docker build context leaves out of ``folder`` (a copytree ``ignore``)."""
+    ignored = set(_IGNORED(folder, names))
+    if os.path.dirname(os.path.abspath(folder)) == str(REPO / "models" / "bundles"):
+        ignored |= set(names) & set(STORE_EXCLUDED)
+    return ignored
 
 
 def _run(*cmd, **kwargs):
@@ -32,10 +43,11 @@ def test_runtime_install_serves_without_torch(tmp_path):
     assert sorted(p for line in copy_lines for p in line if p != "scenes") == sorted(COPIED)
     src = tmp_path / "src"
     src.mkdir()
-    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info", "build")
+    dockerignore = (REPO / "docker" / "Dockerfile.dockerignore").read_text().splitlines()
+    assert all(f"models/bundles/*/{name}" in dockerignore for name in STORE_EXCLUDED)
     for path in COPIED:
         if (REPO / path).is_dir():
-            shutil.copytree(REPO / path, src / path, ignore=ignore)
+            shutil.copytree(REPO / path, src / path, ignore=_ignore)
         else:
             shutil.copy2(REPO / path, src / path)
     shutil.copytree(REPO / "scenes", tmp_path / "scenes")

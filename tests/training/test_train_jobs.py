@@ -1,8 +1,11 @@
 """Retraining jobs (training.train_jobs, `impactnet train`): versioned bundles behind a gate,
-reuse of unchanged pairs, resume after a kill with the same result."""
+reuse of unchanged pairs (from the cache, or from the current bundle where there is no cache),
+resume after a kill with the same result."""
 from __future__ import annotations
 
+import dataclasses
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -16,7 +19,8 @@ import safetensors.numpy
 from models import load_predictor
 from models.bundle_store import REJECTED, VERSIONS, current_version, resolve_bundle
 from models.bundles import WEIGHTS
-from models.scenes import load_scene, scene_path
+from models.scenes import Accuracy, load_scene, scene_path
+from training.bundle_reuse import open_current
 from training.pair_cache import PairCache, reprefix
 from training.train import quick_config, train_pairs
 from training.train_jobs import JobConfig, run_train_job
@@ -29,17 +33,24 @@ FIRST_PAIR_TIMEOUT_S = 120
 IMPOSSIBLE = -1.0
 #: The slow tests are about reuse and resume, not about whether quick models pass the gate.
 NO_GATE = JobConfig(enforce_gate=False)
+#: A scene edit: the cube (in one pair, cube/cube) grows along x.
+CUBE_EDIT = ("size = [2.0, 2.0, 2.0]", "size = [2.5, 2.0, 2.0]")
+#: A scene edit: the first pair (container20/spreader) goes, so every later pair's index moves.
+DROP_FIRST_PAIR = ('[[pairs]]\na = "container20"\nb = "spreader"\n'
+                   'description = "Spreader lands on / strikes a 20 ft container."\n', "")
 
 
 def _weights(store: Path) -> dict:
     return safetensors.numpy.load_file(str(resolve_bundle(store) / WEIGHTS))
 
 
-def _scene_copy(path: Path, old: str = "", new: str = "") -> Path:
-    """A copy of the quay_crane scene file at ``path``, with one text edit if given."""
+def _scene_copy(path: Path, *edits: tuple[str, str]) -> Path:
+    """A copy of the quay_crane scene file at ``path``, with text edits ``(old, new)``."""
     text = scene_path("quay_crane").read_text()
-    assert old in text
-    path.write_text(text.replace(old, new) if old else text)
+    for old, new in edits:
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    path.write_text(text)
     return path
 
 
@@ -128,8 +139,7 @@ def test_a_scene_edit_retrains_only_the_changed_pair(tmp_path):
     store = tmp_path / "store"
     first = run_train_job(load_scene(_scene_copy(tmp_path / "scene.toml")), store,
                           quick_config(5), NO_GATE, progress=False)
-    scene = load_scene(_scene_copy(tmp_path / "edited.toml", "size = [2.0, 2.0, 2.0]",
-                                   "size = [2.5, 2.0, 2.0]"))
+    scene = load_scene(_scene_copy(tmp_path / "edited.toml", CUBE_EDIT))
     second = run_train_job(scene, store, quick_config(5), NO_GATE, progress=False)
     changed = [p.key for p in scene.pairs if "cube" in p.key]
     assert changed == ["cube/cube"]
@@ -137,3 +147,62 @@ def test_a_scene_edit_retrains_only_the_changed_pair(tmp_path):
     assert second.published and second.previous == first.version
     assert current_version(store) == second.version
     assert second.manifest["pairs"]["cube/cube"]["size_a"] == [2.5, 2.0, 2.0]
+
+
+def _renamed(tensors: dict, old: int, new: int) -> dict:
+    """Tensors of pair ``old`` (``p<old>_...``), named as pair ``new``."""
+    return {f"p{new}_{k[len(f'p{old}_'):]}": v for k, v in tensors.items()
+            if k.startswith(f"p{old}_")}
+
+
+def test_a_fresh_clone_reuses_unchanged_pairs_from_the_bundle(tmp_path, capsys):
+    """No cache (it is not committed): the unchanged pairs come from the current bundle."""
+    store, old_scene = tmp_path / "store", load_scene(_scene_copy(tmp_path / "scene.toml"))
+    first = run_train_job(old_scene, store, quick_config(5), NO_GATE, progress=False)
+    shutil.rmtree(store / ".cache")
+    scene = load_scene(_scene_copy(tmp_path / "edited.toml", CUBE_EDIT, DROP_FIRST_PAIR))
+    capsys.readouterr()
+    second = run_train_job(scene, store, quick_config(5), NO_GATE, progress=False)
+    stderr = capsys.readouterr().err
+    unchanged = [p.key for p in scene.pairs if p.key != "cube/cube"]
+    assert second.reused_from == {key: f"bundle {first.version}" for key in unchanged}
+    assert stderr.count(f"reused from bundle {first.version}") == len(unchanged)
+    assert "cube/cube not taken from" in stderr and "cube/cube done in" in stderr
+    assert second.manifest["pairs"]["cube/cube"]["size_a"] == [2.5, 2.0, 2.0]
+    old_weights, new_weights = _weights(first.path), _weights(store)
+    old_index = {p.key: i for i, p in enumerate(old_scene.pairs)}
+    for index, pair in enumerate(scene.pairs):
+        if pair.key in unchanged:  # moved down by one: renamed, bit for bit the same
+            assert index == old_index[pair.key] - 1
+            expected = _renamed(old_weights, old_index[pair.key], index)
+            got = {k: v for k, v in new_weights.items() if k.startswith(f"p{index}_")}
+            assert expected and expected.keys() == got.keys()
+            for key, value in expected.items():
+                np.testing.assert_array_equal(got[key], value, err_msg=key)
+
+
+def test_bundle_reuse_needs_the_same_training_config_and_scene(tmp_path, capsys):
+    scene, store = load_scene("paper"), tmp_path / "store"
+    run_train_job(scene, store, quick_config(3), NO_GATE, progress=False)
+    source = open_current(store, quick_config(3).pair)
+    from_bundle = source.get(scene, 0, quick_config(3).pair)
+    cached = PairCache(store / ".cache" / "pairs").get(scene, 0, quick_config(3).pair)
+    assert from_bundle.seconds == 0.0 and cached.seconds > 0.0
+    assert (from_bundle.mlps, from_bundle.block) == (cached.mlps, cached.block)
+    for got, want in ((from_bundle.tensors, cached.tensors),
+                      (from_bundle.test_rows, cached.test_rows)):  # rows: re-evaluated
+        assert got.keys() == want.keys()
+        for key, value in want.items():
+            np.testing.assert_array_equal(got[key], value, err_msg=key)
+    stricter = dataclasses.replace(scene, accuracy=Accuracy(0.5, 0.02))
+    deeper = dataclasses.replace(scene, depth_fraction=(0.0, 0.02))
+    assert source.pair_change(stricter, 0) is not None
+    assert source.pair_change(deeper, 0) is not None
+    assert open_current(store, quick_config(4).pair) is None  # another seed
+    shutil.rmtree(store / ".cache")
+    capsys.readouterr()
+    other_seed = run_train_job(scene, store, quick_config(4), NO_GATE, progress=False)
+    assert other_seed.reused == [] and "another training config" in capsys.readouterr().err
+    shutil.rmtree(store / ".cache")  # the seed-4 bundle is current and unchanged, but:
+    no_reuse = JobConfig(reuse=False, enforce_gate=False)  # --no-reuse
+    assert run_train_job(scene, store, quick_config(4), no_reuse, progress=False).reused == []
