@@ -65,11 +65,12 @@ class Output:
         self.slot_depths = np.zeros((ct.MAX_MANIFOLD_POINTS, n))
 
     def put(self, rows: np.ndarray, part: Output) -> None:
-        """Copy the answers of ``part`` into ``rows``."""
+        """Copy the learned answers of ``part`` into ``rows``: the fields and manifold slot 0
+        (a learned answer's only slot; the others stay zero until :meth:`put_exact`)."""
         for name in _FIELDS:
             getattr(self, name)[rows] = getattr(part, name)
-        self.slots[:, rows] = part.slots
-        self.slot_depths[:, rows] = part.slot_depths
+        self.slots[0, rows] = part.slots[0]
+        self.slot_depths[0, rows] = part.slot_depths[0]
 
     def put_exact(self, rows: np.ndarray, exact: ct.Contacts) -> None:
         """Copy exact-solver answers into ``rows``."""

@@ -84,12 +84,23 @@ class PairTable:
         return -1
 
     def body_index(self, sizes: np.ndarray) -> np.ndarray:
-        """Body index (m,) of each row of sizes (m, 3), -1 for none."""
+        """Body index (m,) of each row of sizes (m, 3), -1 for none.
+
+        Rows equal to a body's sizes bit for bit (what a simulator sends) are matched by three
+        equality tests per body; only the others take the tolerance test.
+        """
         out = np.full(len(sizes), -1, np.int64)
-        for i, body in enumerate(self._body_array):
-            tol = self.rel_tol * np.maximum(np.abs(sizes), body)
-            hit = (np.abs(sizes - body) <= tol).all(axis=1) & (out < 0)
-            out[hit] = i
+        columns = sizes.T
+        for i, body in enumerate(self._body_array.tolist()):
+            hit = (columns[0] == body[0]) & (columns[1] == body[1]) & (columns[2] == body[2])
+            out[hit & (out < 0)] = i
+        rest = np.flatnonzero(out < 0)
+        if rest.size:
+            near = sizes[rest]
+            for i, body in enumerate(self._body_array):
+                tol = self.rel_tol * np.maximum(np.abs(near), body)
+                hit = (np.abs(near - body) <= tol).all(axis=1) & (out[rest] < 0)
+                out[rest[hit]] = i
         return out
 
     def match(self, size_a: np.ndarray, size_b: np.ndarray) -> np.ndarray | int:

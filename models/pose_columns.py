@@ -53,7 +53,7 @@ class Inputs(NamedTuple):
 
     def take(self, rows: np.ndarray) -> Inputs:
         """The pairs ``rows`` (integer indices) as new Inputs."""
-        picked = [a if len(a) == 1 else a[rows] for a in self[:8]]
+        picked = [a if len(a) == 1 else np.take(a, rows, axis=0) for a in self[:8]]
         return Inputs(*picked, len(rows))
 
     def swapped(self) -> Inputs:
