@@ -29,11 +29,12 @@ log = logging.getLogger("impactnet.service")
 
 DESCRIPTION = """
 Box-box contact for a real-time crane simulator: impact point, contact normal (from A towards
-B), penetration depth, contact type and features. Modes: `exact` (the separating-axis
-solver, always served), and with a learned bundle `single` (one MLP), `committee` (classifier
--> region -> expert committee, with a confidence) and `auto` (the committee, with the exact
-solver for the pairs it is unsure of or has no model for). Each answer names the `predictor`
-that answered it. Default mode: `auto` with a bundle, `exact` without (GET /v1/models).
+B), penetration depth, contact type and features. Modes: `exact` (the separating-axis solver,
+always served), and with a learned bundle `single` (one MLP), `committee` (exact region
+labeller -> that region's expert committee for the point, with a confidence) and `auto` (the
+committee, with the exact solver for the pairs it is unsure of or has no model for). Each
+answer names the `predictor` that answered it. Default mode: `auto` with a bundle, `exact`
+without (GET /v1/models).
 
 Units: metres and radians. A body is `size` (full edge lengths) or a scene `object`, a
 `position` (centre, world frame) and exactly one orientation: `quaternion` [w, x, y, z]

@@ -120,7 +120,7 @@ class ContactResponse(BaseModel):
     axis: int = Field(description="Separating-axis index: 0-2 faces of A, 3-5 faces of B, "
                       "6 + 3i + j edge i of A x edge j of B.")
     confidence: float = Field(description="1 for exact; a learned predictor's confidence in "
-                              "[0, 1] (committee: the classifier's probability).")
+                              "[0, 1] (committee: 1, 0 outside the trained depth range).")
     predictor: str = Field(description="The predictor that answered: exact, single, "
                            "committee (in mode auto: committee, or exact for a fallback).")
     mode: Mode = Field(description="The mode that was requested (or the default).")

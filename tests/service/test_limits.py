@@ -186,7 +186,7 @@ def test_draining_turns_readyz_503_but_still_serves(make_client):
     assert c.post("/v1/contact", json=PAIR).status_code == 200  # in-flight / late: served
 
 
-def test_bundle_is_refused_until_learned_modes_exist(make_client):
-    c = make_client(bundle="models/bundles/quay_crane")
+def test_a_missing_bundle_is_refused_with_the_reason(make_client):
+    c = make_client(bundle="models/bundles/no_such_scene")
     response = c.get("/readyz")
     assert response.status_code == 503 and "bundle" in response.json()["reason"]

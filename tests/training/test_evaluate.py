@@ -35,8 +35,9 @@ def test_the_paper_metric_of_the_exact_solver_is_zero():
 @pytest.fixture(scope="module")
 def quick_bundle(tmp_path_factory):
     out = tmp_path_factory.mktemp("bundle") / "quay_crane"
+    # --no-gate: a quick bundle cannot meet the scene's tolerance; these tests check plumbing
     assert main(["train", "--scene", "quay_crane", "--out", str(out), "--seed", "0",
-                 "--quick", "--no-progress"]) == 0
+                 "--quick", "--no-progress", "--no-gate"]) == 0
     return out
 
 

@@ -38,11 +38,12 @@ def _trials_of(study, pid: int, state: str) -> list:
 
 
 def _wait_for_running_second_trial(study, worker: subprocess.Popen):
-    """The worker's running trial once it has completed one (so both workers contribute)."""
+    """The worker's running trial once it has completed one (so both workers contribute) and
+    has drawn its parameters (so that the kill lands in the middle of training)."""
     deadline = time.monotonic() + STUDY_TIMEOUT_S
     while time.monotonic() < deadline:
         assert worker.poll() is None, worker.stdout.read()
-        running = _trials_of(study, worker.pid, "RUNNING")
+        running = [t for t in _trials_of(study, worker.pid, "RUNNING") if t.params]
         if running and _trials_of(study, worker.pid, "COMPLETE"):
             return running[0]
         time.sleep(0.02)
@@ -73,9 +74,10 @@ def test_two_workers_share_a_study_and_survive_a_killed_one(postgres_server_url,
     assert sorted(t.number for t in trials) == list(range(len(trials)))  # none duplicated
     assert states.count("COMPLETE") + states.count("PRUNED") == TRIALS
     assert "RUNNING" not in states and "WAITING" not in states  # none lost in flight
-    assert study.trials[victim.number].state.name == "FAIL"  # the heartbeat noticed
+    failed = study.trials[victim.number]
+    assert failed.state.name == "FAIL"  # the heartbeat noticed
     retries = [t for t in trials if t.system_attrs.get("failed_trial") == victim.number]
-    assert len(retries) == 1 and retries[0].params == victim.params
+    assert len(retries) == 1 and retries[0].params == failed.params  # the same trial, again
     assert retries[0].state.name in ("COMPLETE", "PRUNED")
     workers = {t.user_attrs["worker"].rsplit(":", 1)[1] for t in trials
                if t.state.name == "COMPLETE"}
