@@ -28,7 +28,7 @@ import shutil
 import uuid
 from pathlib import Path
 
-from models.bundles import MANIFEST, BundleError, _fsync_dir, _write_file
+from models.bundles import MANIFEST, BundleError, fsync_dir, write_file
 
 #: The pointer file of a store.
 CURRENT = "current"
@@ -91,11 +91,11 @@ def set_current(store, version: str) -> None:
         raise BundleError(f"{folder}: no version folder {version!r} to point at")
     tmp = folder / f".{CURRENT}.tmp-{uuid.uuid4().hex[:12]}"
     try:
-        _write_file(tmp, f"{version}\n".encode())
+        write_file(tmp, f"{version}\n".encode())
         os.replace(tmp, folder / CURRENT)
     finally:
         tmp.unlink(missing_ok=True)
-    _fsync_dir(folder)
+    fsync_dir(folder)
 
 
 def list_versions(store, kind: str = VERSIONS) -> list[str]:
@@ -128,20 +128,32 @@ def prune(store, keep: int, kind: str = VERSIONS) -> list[str]:
 
 
 def adopt_plain_bundle(folder, version: str) -> bool:
-    """Turn a plain bundle folder into a store in place; False where it is not a plain bundle.
+    """Turn a plain bundle folder into a store; False where it is not a plain bundle.
 
-    The bundle's files move to ``versions/<version>/`` (renames within one file system) and the
-    pointer names it. Between the moves a reader of the folder finds neither form; this runs
-    only from a training job, never while a service reads the folder at startup.
+    The store is built beside the folder (``.<name>.adopt-<random>``: a copy of the bundle's
+    files under ``versions/<version>/`` and the pointer), then swapped in by two renames: the
+    bundle folder aside, the store into its place, and the old folder deleted. Until the first
+    rename readers find the plain bundle; after the second, the store; a crash between the two
+    leaves the complete bundle under its ``.old`` name, never half a store.
     """
     folder = Path(folder)
     if is_store(folder) or not (folder / MANIFEST).is_file():
         return False
-    target = folder / VERSIONS / check_version_name(version)
-    target.mkdir(parents=True)
-    for entry in list(folder.iterdir()):
-        if entry.is_file():
-            os.rename(entry, target / entry.name)
-    _fsync_dir(target)
-    set_current(folder, version)
+    staging = folder.parent / f".{folder.name}.adopt-{uuid.uuid4().hex[:12]}"
+    target = staging / VERSIONS / check_version_name(version)
+    try:
+        target.mkdir(parents=True)
+        for entry in folder.iterdir():
+            if entry.is_file():
+                shutil.copy2(entry, target / entry.name)
+        fsync_dir(target)
+        set_current(staging, version)
+        old = folder.parent / f".{folder.name}.old-{uuid.uuid4().hex[:12]}"
+        os.rename(folder, old)
+        os.rename(staging, folder)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    fsync_dir(folder.parent)
+    shutil.rmtree(old, ignore_errors=True)
     return True

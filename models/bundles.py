@@ -201,6 +201,17 @@ def _assemble(manifest, tensors: dict[str, np.ndarray]) -> tuple[dict, dict]:
     return mlps, {key: _pair_models(key, entry, mlps) for key, entry in pairs.items()}
 
 
+def bundle_in_memory(manifest: dict, tensors: dict[str, np.ndarray]) -> Bundle:
+    """The bundle that :func:`write_bundle` would write, without writing it (its checks, no
+    files): to run a candidate's predictors before deciding where it goes."""
+    manifest = json.loads(json.dumps(manifest, allow_nan=False))
+    manifest.setdefault("format", FORMAT)
+    manifest.setdefault("format_version", FORMAT_VERSION)
+    arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in tensors.items()}
+    mlps, pairs = _assemble(manifest, arrays)
+    return Bundle(manifest, mlps, pairs)
+
+
 def _parse_json(data: bytes):
     def refuse(constant):
         raise BundleError(f"{MANIFEST}: {constant} is not JSON")
@@ -241,7 +252,7 @@ def read_bundle(path) -> Bundle:
     return Bundle(manifest, mlps, pairs, folder)
 
 
-def _write_file(path: Path, data: bytes) -> None:
+def write_file(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` and fsync it."""
     with open(path, "wb") as handle:
         handle.write(data)
@@ -249,7 +260,8 @@ def _write_file(path: Path, data: bytes) -> None:
         os.fsync(handle.fileno())
 
 
-def _fsync_dir(path: Path) -> None:
+def fsync_dir(path: Path) -> None:
+    """Fsync a folder, so that the renames and new files in it are on disk."""
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -288,14 +300,14 @@ def write_bundle(path, manifest: dict, tensors: dict[str, np.ndarray]) -> Path:
     tmp = folder.parent / f".{folder.name}.tmp-{uuid.uuid4().hex[:12]}"
     tmp.mkdir()
     try:
-        _write_file(tmp / WEIGHTS, data)
-        _write_file(tmp / MANIFEST, text.encode("utf-8"))
-        _fsync_dir(tmp)
+        write_file(tmp / WEIGHTS, data)
+        write_file(tmp / MANIFEST, text.encode("utf-8"))
+        fsync_dir(tmp)
         _replace_folder(tmp, folder)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    _fsync_dir(folder.parent)
+    fsync_dir(folder.parent)
     return folder
 
 

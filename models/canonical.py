@@ -45,7 +45,7 @@ REGION_LABELLER = "exact-sat-v1"
 EXPERT_OUTPUTS_VERSION = "contact-residual-v1"
 N_POSE_FEATURES = 12
 N_CONTACT_OUTPUTS = 7
-#: Region key of separated pairs (the classifier's first class).
+#: Region key of separated pairs (the first entry of a pair's region list).
 NONE_KEY = "none"
 #: A predicted canonical normal shorter than this (dimensionless) has no direction; it is
 #: replaced by :data:`FALLBACK_NORMAL` instead of being divided by ~0.

@@ -11,13 +11,16 @@ import math
 
 from models import box_features as bf
 from models import contacts as ct
+from models.manifold import FACE_INC_CODES as FACE_INC_CODES_ARRAY
+from models.manifold import FACE_REF_CODES as FACE_REF_CODES_ARRAY
 from models.manifold import QUAD_SIGNS, SNAP_TOL_REL, WEIGHT_FLOOR_REL
 from models.sat import CONTACT_TOL_REL, EDGE_SKEW_TOL_REL, TIE_TOL_REL
 from models.scalar_inputs import single_pair  # noqa: F401  (re-exported: the N = 1 entry)
 
 _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]
-_FACE_REF_CODES = (0, ct.FACE_VERTEX, ct.FACE_EDGE, ct.FACE_FACE)
-_FACE_INC_CODES = (0, ct.VERTEX_FACE, ct.EDGE_FACE, ct.FACE_FACE)
+# models.manifold's tables as Python ints (the scalar path avoids NumPy scalars).
+FACE_REF_CODES = tuple(FACE_REF_CODES_ARRAY.tolist())
+FACE_INC_CODES = tuple(FACE_INC_CODES_ARRAY.tolist())
 _PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
 
 
@@ -304,8 +307,8 @@ def _face_rows(ha, hb, rot, t, axis, scale):
     total = sum(weights)
     point = [sum(wt * p[k] for wt, (p, _) in zip(weights, points)) / total for k in range(3)]
     if ref_is_b:
-        return points, point, _FACE_INC_CODES[rank], inc, ref_face
-    return points, point, _FACE_REF_CODES[rank], ref_face, inc
+        return points, point, FACE_INC_CODES[rank], inc, ref_face
+    return points, point, FACE_REF_CODES[rank], ref_face, inc
 
 
 def _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, manifold,

@@ -40,8 +40,8 @@ from models.canonical import FALLBACK_NORMAL, FLIP_FEATURES, N_POSE_FEATURES
 from models.exact import box_box
 from models.learned_one import Prediction, one_pair, predict_one
 from models.pair_dispatch import UNSUPPORTED, PairTable, UnsupportedPairError, groups, unswap
-from models.pair_runtime import PairRuntime, member_stats
-from models.region_label import input_block, label_block
+from models.pair_runtime import AUTO_EXACT_TYPES, PairRuntime, member_stats
+from models.region_label import input_block, label_block, mirrored
 
 _FIELDS = ("colliding", "normal", "depth", "point", "contact_type_code", "feature_a",
            "feature_b", "axis", "manifold_count", "confidence", "predictor", "normal_spread",
@@ -154,7 +154,8 @@ class LearnedPredictor:
                 continue
             group = inputs if rows is None else inputs.take(rows)
             part = out if rows is None else Output(len(rows))
-            self.solve(pair, group.swapped() if code % 2 else group, part, spread)
+            self.solve(pair, group.swapped() if code % 2 else group, part, spread,
+                       swapped=bool(code % 2))
             if code % 2:
                 unswap_output(part)
             if rows is not None:
@@ -162,8 +163,10 @@ class LearnedPredictor:
         _exact_fallback(out, inputs)  # auto's unsure rows, the committee's unknown regions
         return out.prediction()
 
-    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool) -> None:
-        """Answer one pair model's rows into ``out`` (see the subclasses)."""
+    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool,
+              swapped: bool = False) -> None:
+        """Answer one pair model's rows into ``out`` (see the subclasses); ``inputs`` are in
+        the bundle's order, ``swapped`` says that the request gave them the other way round."""
         raise NotImplementedError
 
 
@@ -188,7 +191,8 @@ class SinglePredictor(LearnedPredictor):
 
     mode = "single"
 
-    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool) -> None:
+    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool,
+              swapped: bool = False) -> None:
         n = inputs.n
         features = _augmented_features(min(n, pc.ROW_BLOCK))
         outputs = np.empty((min(n, pc.ROW_BLOCK), 7), np.float32)
@@ -228,20 +232,26 @@ class CommitteePredictor(LearnedPredictor):
 
     mode = "committee"
 
-    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool) -> None:
+    def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool,
+              swapped: bool = False) -> None:
         n = inputs.n
         features = _augmented_features(n)
+        request = inputs.swapped() if swapped else inputs  # labelled in the request's order
         region = np.empty(n, np.int16)
         unclipped = np.empty((n, 3))  # the labeller's point before clipping, world, metres
+        untrusted = np.zeros(n, bool)  # rows auto answers exactly whatever the committee says
         frames = []
         for start in range(0, n, pc.ROW_BLOCK):
             stop = min(n, start + pc.ROW_BLOCK)
             frame = pc.canonical_block(inputs, start, stop, pair.inv_scale,
                                        features[start:stop, :N_POSE_FEATURES])
             frames.append(frame)
-            labels = label_block(input_block(inputs, start, stop))
+            labels = label_block(input_block(request, start, stop))
+            labels = mirrored(labels) if swapped else labels
             region[start:stop] = _put_labels(pair, labels, frame, out, slice(start, stop))
             unclipped[start:stop] = labels.unclipped.T
+            untrusted[start:stop] = (np.isin(labels.code, AUTO_EXACT_TYPES)
+                                     & ~labels.exact_point & labels.colliding)
         unknown = region < 0  # a region without a committee: the exact solver answers
         np.maximum(region, 0, out=region)
         outputs = self._experts(pair, features, region, out, spread or self.mode == "auto")
@@ -255,7 +265,7 @@ class CommitteePredictor(LearnedPredictor):
         _separated(out, inputs, np.flatnonzero(~out.colliding))
         if self.mode == "auto":
             out.unsure |= pair.unsure(out.confidence, out.normal_spread, out.point_spread,
-                                      out.depth / pair.edge, out.colliding)
+                                      out.depth / pair.edge, out.colliding) | untrusted
         out.finish_learned("committee")
         out.unsure |= unknown
 
@@ -297,7 +307,7 @@ class CommitteePredictor(LearnedPredictor):
 def _put_labels(pair: PairRuntime, labels, frame, out: Output, rows: slice) -> np.ndarray:
     """The exact labels of a block into ``out[rows]``; returns the canonical region of each
     row (``pair.region_of``: -1 where the region has no committee; 0, whose outputs are a zero
-    residual, for separated and edge-edge rows, whose unclipped point is exact)."""
+    residual, for separated rows and rows whose unclipped point is exact)."""
     out.colliding[rows], out.axis[rows], out.depth[rows] = (labels.colliding, labels.axis,
                                                             labels.depth)
     out.normal[rows] = labels.normal.T
@@ -305,7 +315,7 @@ def _put_labels(pair: PairRuntime, labels, frame, out: Output, rows: slice) -> n
     out.feature_a[rows], out.feature_b[rows] = labels.feature_a, labels.feature_b
     region = pair.region_of(labels.code, FLIP_FEATURES[frame.flip_a, labels.feature_a],
                             FLIP_FEATURES[frame.flip_b, labels.feature_b])
-    region[labels.code == ct.EDGE_EDGE] = 0  # exact point: no committee, residual 0
+    region[labels.exact_point] = 0  # the unclipped point is exact: no committee, residual 0
     return region
 
 

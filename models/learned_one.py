@@ -20,6 +20,8 @@ from models.canonical import FALLBACK_NORMAL, FLIP_FEATURES, NORMAL_NORM_MIN
 from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from models.exact_scalar import box_box_one, single_pair
 from models.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UnsupportedPairError
+from models.pair_runtime import AUTO_EXACT_TYPES
+from models.pose_columns import WIDTHS
 from models.region_label import label_one
 from models.rotations import QUATERNION_MIN_NORM
 
@@ -28,7 +30,6 @@ _DEG = 180.0 / math.pi
 _FLIP = FLIP_FEATURES.tolist()  # _FLIP[flip][feature], feature -1 -> last entry (-1)
 _MIRROR_TYPE, _MIRROR_AXIS = MIRROR_TYPE.tolist(), MIRROR_AXIS.tolist()
 _FALLBACK = FALLBACK_NORMAL.tolist()
-_WIDTHS = (3, 3, 4, 3, 3, 4)
 
 
 class Prediction(NamedTuple):
@@ -48,7 +49,7 @@ def one_pair(values):
     anything is converted.
     """
     rows = []
-    for value, width in zip(values, _WIDTHS):
+    for value, width in zip(values, WIDTHS):
         if type(value) is np.ndarray:
             if value.size != width:
                 return None
@@ -162,7 +163,7 @@ def predict_one(predictor, values, spread: bool = True):
         spread = (0.0, 0.0)
     else:
         auto = predictor.mode == "auto"
-        row, spread = _committee_one(pair, x, to_world, flip_a, flip_b, solved, auto,
+        row, spread = _committee_one(pair, x, to_world, flip_a, flip_b, values, swapped, auto,
                                      spread or auto)
         if row is None:  # no committee for the region, or auto: unsure
             return box_box_one(*values), 0.0, 0.0
@@ -173,23 +174,28 @@ def predict_one(predictor, values, spread: bool = True):
     return _contacts(*row), spread[0], spread[1]
 
 
-def _committee_one(pair, x, to_world, flip_a, flip_b, solved, auto: bool, spread: bool):
+def _committee_one(pair, x, to_world, flip_a, flip_b, values, swapped: bool, auto: bool,
+                   spread: bool):
     """(row fields, spread) of the committee for one canonical input ``x`` (12,); row None
     when the exact solver is to answer (a region without a committee; in ``auto``, an
-    unsure answer); the spread only if ``spread``."""
-    colliding, axis, depth, normal, code, fa, fb, unclipped = label_one(solved)
+    unsure answer); the spread only if ``spread``. The pair is labelled in the request's
+    order (``values``) and the labels mirrored into the bundle's order if ``swapped``."""
+    colliding, axis, depth, normal, code, fa, fb, exact, unclipped = label_one(values)
+    if swapped:
+        normal, fa, fb = [-normal[0], -normal[1], -normal[2]], fb, fa
+        code, axis = _MIRROR_TYPE[code], _MIRROR_AXIS[axis]
     if not colliding:
-        pa, pb = solved[1], solved[4]
+        pa, pb = values[1], values[4]
         point = [0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])]
         return [False, normal, 0.0, point, 0, -1, -1, axis, 1.0, "committee"], (0.0, 0.0)
     inside = pair.depth_lo <= depth / pair.edge <= pair.depth_hi
-    if code == ct.EDGE_EDGE:  # the unclipped point is exact: no committee
+    if exact:  # the unclipped point is exact: no committee
         if auto and not inside:
             return None, None
         return [True, normal, depth, unclipped, code, fa, fb, axis, 1.0 if inside else 0.0,
                 "committee"], (0.0, 0.0)
     region = pair.region_dict.get((code, _FLIP[flip_a][fa], _FLIP[flip_b][fb]))
-    if region is None:
+    if region is None or (auto and code in AUTO_EXACT_TYPES):
         return None, None
     members = pair.experts[region].forward_one(x).tolist()
     k = len(members)

@@ -56,7 +56,7 @@ class MLP:
     in_mean, in_scale : array_like, shape (layers[0],)
         Input normalisation; ``in_scale`` > 0.
     out_mean, out_scale : array_like, shape (layers[-1],)
-        Output de-normalisation (0 and 1 for a classifier).
+        Output de-normalisation.
     """
 
     def __init__(self, spec: MLPSpec, weights, biases, in_mean, in_scale, out_mean, out_scale):

@@ -31,6 +31,7 @@ from models import local_frame as lf
 from models import manifold as mf
 from models import sat
 from models.exact import CHUNK_ROWS, prepare_inputs, unit_quaternions
+from models.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE
 
 
 class Labels(NamedTuple):
@@ -43,6 +44,8 @@ class Labels(NamedTuple):
     code: np.ndarray  # (m,) int8, contact type code (models.contacts)
     feature_a: np.ndarray  # (m,) int8, feature id in A (models.box_features), -1 for none
     feature_b: np.ndarray  # (m,) int8, feature id in B, -1 for none
+    exact_point: np.ndarray  # (m,) bool: ``unclipped`` is the exact point (edge-edge, and face
+    # contacts whose part below the reference face lies inside it: nothing to clip)
     unclipped: np.ndarray  # (3, m) float64, world frame, metres: the point before clipping
     # (models.manifold.face_features; an edge-edge contact's exact point; A's centre where
     # separated)
@@ -81,12 +84,14 @@ def label_block(block: np.ndarray) -> Labels:
     feature_a = np.full(m, bf.NO_FEATURE, np.int8)
     feature_b = np.full(m, bf.NO_FEATURE, np.int8)
     unclipped = np.zeros((3, m))  # A's frame
+    exact_point = np.zeros(m, bool)
     face = colliding & (axis < 6)
     rows = np.flatnonzero(face)
     if rows.size:
         ref_is_b = axis[rows] >= 3
         frame = mf.ReferenceFrame(pose, rows, ref_is_b, axis[rows] % 3)
-        incident, rank, ref_face, point = face_features(frame, pose.scale[rows])
+        incident, rank, ref_face, point, exact_point[rows] = face_features(frame,
+                                                                          pose.scale[rows])
         code[rows], feature_a[rows], feature_b[rows] = mf.face_labels(ref_is_b, incident, rank,
                                                                       ref_face)
         flip = np.flatnonzero(ref_is_b)  # points in B's frame: map them to A's
@@ -97,10 +102,11 @@ def label_block(block: np.ndarray) -> Labels:
     if rows.size:
         unclipped[:, rows], feature_a[rows], feature_b[rows] = mf.edge_contact(
             pose.take(rows), np.take(normal, rows, axis=1), axis[rows])
+        exact_point[rows] = True
         code[rows] = ct.EDGE_EDGE
     world = block[lf.INPUT_SLICES[1]] + lf.matvec(rot_a, unclipped)
     return Labels(colliding, axis.astype(np.int8), depth, lf.matvec(rot_a, normal), code,
-                  feature_a, feature_b, world)
+                  feature_a, feature_b, exact_point, world)
 
 
 def face_features(frame: mf.ReferenceFrame, scale):
@@ -121,6 +127,8 @@ def face_features(frame: mf.ReferenceFrame, scale):
         incident face is aligned with the reference face (clamping a rectangle's corners into
         an aligned rectangle gives their intersection's corners); elsewhere it is close, and
         the committee's experts learn the rest.
+    exact : ndarray of bool, shape (m,)
+        :func:`nothing_clipped`: the unclipped point is the exact point.
     """
     tol = mf.SNAP_TOL_REL * scale
     vertices, ref_sign, k, side = mf.incident_quad(frame)
@@ -135,7 +143,49 @@ def face_features(frame: mf.ReferenceFrame, scale):
     along = ref_sign * height - ref_sign * 0.5 * (weight * clamped).sum(axis=0) / total
     unclipped = mf.from_reference(frame.ref_axis, along, (weight * u).sum(axis=0) / total,
                                (weight * w).sum(axis=0) / total)
-    return feature, rank, bf.face_id(frame.ref_axis, ref_sign < 0), unclipped
+    quad_u, quad_w = vertices[:, 1], vertices[:, 2]
+    exact = (nothing_clipped(quad_u, quad_w, depth, half_u, half_w, tol)
+             | (aligned(quad_u, quad_w) & (depth >= -tol).all(axis=0)))
+    return feature, rank, bf.face_id(frame.ref_axis, ref_sign < 0), unclipped, exact
+
+
+#: Largest sine (dimensionless) between an incident face's edge and the reference face's axes
+#: for which the two rectangles count as aligned: then clamping the incident corners into the
+#: reference rectangle gives the corners of their intersection (off by sine x size at most).
+ALIGNED_SINE_MAX = 1e-9
+
+
+def aligned(quad_u, quad_w) -> np.ndarray:
+    """Whether the incident quad (4, m) projects onto a rectangle aligned with the reference
+    face's axes, (m,) bool. With every vertex touching, the clamped point is then exact."""
+    ok = np.ones(quad_u.shape[1], bool)
+    for j in (1, 3):  # the quad's two edge directions, from vertex 0
+        du, dw = np.abs(quad_u[j] - quad_u[0]), np.abs(quad_w[j] - quad_w[0])
+        ok &= np.minimum(du, dw) <= ALIGNED_SINE_MAX * np.maximum(du, dw)
+    return ok
+
+
+def nothing_clipped(quad_u, quad_w, depth, half_u, half_w, tol) -> np.ndarray:
+    """Whether the part of the incident face below the reference face (depth >= 0) lies
+    strictly inside the reference face's rectangle, (m,) bool: its touching vertices and the
+    points where its edges cross depth 0. Then clipping removes nothing, the manifold is the
+    touching vertices, and the unclipped point is the exact point.
+
+    ``quad_u``, ``quad_w``, ``depth``: the 4 vertices (4, m), cyclic; ``half_u``, ``half_w``
+    (m,) the rectangle, ``tol`` (m,) metres.
+    """
+    lim_u, lim_w = half_u - tol, half_w - tol
+    touching = depth >= -tol
+    inside = (np.abs(quad_u) < lim_u) & (np.abs(quad_w) < lim_w)
+    ok = (inside | ~touching).all(axis=0)
+    for i in range(4):
+        j = (i + 1) % 4
+        crosses = touching[i] != touching[j]
+        t = depth[i] / np.where(crosses, depth[i] - depth[j], 1.0)
+        cu = quad_u[i] + t * (quad_u[j] - quad_u[i])
+        cw = quad_w[i] + t * (quad_w[j] - quad_w[i])
+        ok &= ~crosses | ((np.abs(cu) < lim_u) & (np.abs(cw) < lim_w))
+    return ok
 
 
 #: Smallest |det| (x the quad's area scale squared, dimensionless) of the incident face's
@@ -160,25 +210,36 @@ def plane_depth(quad_u, quad_w, depth, u, w) -> np.ndarray:
     return np.where(solvable, planar, depth)
 
 
+def mirrored(labels: Labels) -> Labels:
+    """The labels of the same m contacts with A and B exchanged (normal negated, features
+    exchanged, types and axes mirrored): how the committee labels a pair in the request's order
+    and then solves it in the bundle's order, so that at exact ties it names the contact as
+    the exact solver does for the request."""
+    return labels._replace(axis=MIRROR_AXIS[labels.axis], normal=-labels.normal,
+                           code=MIRROR_TYPE[labels.code], feature_a=labels.feature_b,
+                           feature_b=labels.feature_a)
+
+
 def unclipped_points(size_a, position_a, quaternion_a, size_b, position_b,
                      quaternion_b) -> np.ndarray:
-    """The unclipped points (n, 3) (world frame, metres; see :class:`Labels`) of n pairs,
-    arguments as :func:`models.exact.box_box` (the experts' training targets are the exact
-    point minus this)."""
+    """The unclipped points (n, 3) (world frame, metres) and their ``exact_point`` flags (n,)
+    (see :class:`Labels`) of n pairs, arguments as :func:`models.exact.box_box` (the experts'
+    training targets are the exact point minus this, on the rows not flagged)."""
     inputs = prepare_inputs(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
     n = len(inputs[0])
-    out = np.empty((n, 3))
+    out, exact = np.empty((n, 3)), np.empty(n, bool)
     for start in range(0, n, CHUNK_ROWS):
         stop = min(n, start + CHUNK_ROWS)
-        out[start:stop] = label_block(lf.input_columns(inputs, start, stop)).unclipped.T
-    return out
+        labels = label_block(lf.input_columns(inputs, start, stop))
+        out[start:stop], exact[start:stop] = labels.unclipped.T, labels.exact_point
+    return out, exact
 
 
 def label_one(values) -> tuple:
     """Exact labels of one validated pair (the lists of :func:`models.exact_scalar.
     single_pair`): ``(colliding, axis, depth, normal, code, feature_a, feature_b,
-    unclipped)``, the normal and the unclipped point (see :class:`Labels`) as 3 floats in the
-    world frame."""
+    exact_point, unclipped)``, the normal and the unclipped point (see :class:`Labels`) as 3
+    floats in the world frame."""
     ha, hb, rot, t, rot_a = es.relative_frame(*values)
     scale = max(ha) + max(hb)
     over, axes = es.overlaps(ha, hb, rot, t, scale)
@@ -188,21 +249,22 @@ def label_one(values) -> tuple:
     normal = [v * sign for v in u]
     world = es.apply(rot_a, normal)
     if not colliding:
-        return False, axis, 0.0, world, ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE, list(values[1])
+        return (False, axis, 0.0, world, ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE, False,
+                list(values[1]))
     depth = max(over[axis], 0.0)
     if axis < 6:
-        code, feature_a, feature_b, point = _face_labels_one(ha, hb, rot, t, axis, scale)
+        code, feature_a, feature_b, point, exact = _face_labels_one(ha, hb, rot, t, axis, scale)
     else:
         point, feature_a, feature_b = es.edge_contact(ha, hb, rot, t, normal, axis)
-        code = ct.EDGE_EDGE
+        code, exact = ct.EDGE_EDGE, True
     pa = values[1]
     unclipped = [pa[r] + es.dot(rot_a[r], point) for r in range(3)]
-    return True, axis, depth, world, code, feature_a, feature_b, unclipped
+    return True, axis, depth, world, code, feature_a, feature_b, exact, unclipped
 
 
 def _face_labels_one(ha, hb, rot, t, axis, scale):
-    """(type code, feature of A, feature of B, unclipped point in A's frame) of one
-    face-axis contact (as :func:`models.manifold.face_features`)."""
+    """(type code, feature of A, feature of B, unclipped point in A's frame, exact flag) of
+    one face-axis contact (as :func:`face_features`)."""
     h_ref, h_inc, rot_ri, t_ri = es.reference_view(ha, hb, rot, t, axis)
     ref_axis = axis % 3
     ref_sign, vertices, signs, depth, face = es.incident_face(h_ref, h_inc, rot_ri, t_ri,
@@ -223,10 +285,40 @@ def _face_labels_one(ha, hb, rot, t, axis, scale):
                        - ref_sign * 0.5 * sum(w * d for w, d in zip(weights, depths)) / total)
     point[u_axis] = sum(w * c[0] for w, c in zip(weights, clamped)) / total
     point[w_axis] = sum(w * c[1] for w, c in zip(weights, clamped)) / total
+    exact = (_nothing_clipped_one(quad, depth, h_ref[u_axis] - tol, h_ref[w_axis] - tol, tol)
+             or (all(d >= -tol for d in depth) and _aligned_one(quad)))
     if axis >= 3:
         point = [t[r] + es.dot(rot[r], point) for r in range(3)]
-        return int(mf.FACE_INC_CODES[rank]), incident, ref_face, point
-    return int(mf.FACE_REF_CODES[rank]), ref_face, incident, point
+        return es.FACE_INC_CODES[rank], incident, ref_face, point, exact
+    return es.FACE_REF_CODES[rank], ref_face, incident, point, exact
+
+
+def _aligned_one(quad) -> bool:
+    """:func:`aligned` of one contact (``quad``: 4 (u, w) pairs)."""
+    for j in (1, 3):
+        du, dw = abs(quad[j][0] - quad[0][0]), abs(quad[j][1] - quad[0][1])
+        if min(du, dw) > ALIGNED_SINE_MAX * max(du, dw):
+            return False
+    return True
+
+
+def _nothing_clipped_one(quad, depth, lim_u, lim_w, tol) -> bool:
+    """:func:`nothing_clipped` of one contact (``quad``: 4 (u, w) pairs, limits reduced by
+    the tolerance)."""
+    def inside(u, w):
+        return abs(u) < lim_u and abs(w) < lim_w
+
+    for i in range(4):
+        j = (i + 1) % 4
+        touching_i, touching_j = depth[i] >= -tol, depth[j] >= -tol
+        if touching_i and not inside(*quad[i]):
+            return False
+        if touching_i != touching_j:
+            t = depth[i] / (depth[i] - depth[j])
+            if not inside(quad[i][0] + t * (quad[j][0] - quad[i][0]),
+                          quad[i][1] + t * (quad[j][1] - quad[i][1])):
+                return False
+    return True
 
 
 def _plane_depth_one(quad, depth, points):

@@ -3,8 +3,10 @@
 Markers (declared in pyproject.toml):
 - ``slow``: long fuzz / load tests. ``make test`` (and CI) runs them; ``make test-fast`` skips
   them with ``-m "not slow"``.
-- ``postgres``: needs a PostgreSQL server; skipped unless ``IMPACTNET_TEST_POSTGRES_URL`` names
-  one (the URL is available to tests through the ``postgres_url`` fixture).
+
+PostgreSQL: the sweep tests start a throwaway server themselves
+(``tests/training/conftest.py::postgres_server_url``), or use the one that
+``IMPACTNET_TEST_POSTGRES_URL`` names.
 
 Hypothesis: the ``impactnet`` profile (default) has no per-example deadline, since NumPy calls
 vary in time with the machine's load; ``HYPOTHESIS_PROFILE=ci`` additionally derandomises.
@@ -13,8 +15,7 @@ from __future__ import annotations
 
 import os
 
-import pytest
-
+#: An existing PostgreSQL server for the sweep tests (else they start their own).
 POSTGRES_URL_ENV = "IMPACTNET_TEST_POSTGRES_URL"
 
 try:
@@ -28,21 +29,3 @@ if _hypothesis_settings is not None:
         "ci", parent=_hypothesis_settings.get_profile("impactnet"), derandomize=True
     )
     _hypothesis_settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "impactnet"))
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    if os.environ.get(POSTGRES_URL_ENV):
-        return
-    skip = pytest.mark.skip(reason=f"needs PostgreSQL: set {POSTGRES_URL_ENV}")
-    for item in items:
-        if "postgres" in item.keywords:
-            item.add_marker(skip)
-
-
-@pytest.fixture
-def postgres_url() -> str:
-    """The PostgreSQL URL of the test server (tests marked ``postgres`` only run when it is set)."""
-    url = os.environ.get(POSTGRES_URL_ENV)
-    if not url:
-        pytest.skip(f"needs PostgreSQL: set {POSTGRES_URL_ENV}")
-    return url

@@ -58,14 +58,16 @@ def calibration_scores(pred: dict, depth_fraction: tuple[float, float]) -> np.nd
     """The four "keep if <= threshold" scores of every row, (4, n) float64.
 
     ``pred``: :func:`training.pair_eval.committee_predictions` output. Rows predicted "none"
-    have spreads 0 and no depth excess; rows answered exactly anyway (``pred["exact"]``: a
-    region without a committee) get an infinite depth excess, so that they count as fallback.
+    have spreads 0 and no depth excess; rows ``auto`` answers exactly anyway
+    (``pred["auto_exact"]``, else ``pred["exact"]``: a region without a committee, a clipped
+    contact of models.pair_runtime.AUTO_EXACT_TYPES) get an infinite depth excess, so that
+    they count as fallback.
     """
     lo, hi = depth_fraction
     depth = pred["output"][:, 6]
     contact = pred["region"] != 0
     excess = np.where(contact, np.maximum(np.maximum(lo - depth, depth - hi), 0.0), 0.0)
-    excess[pred["exact"]] = np.inf
+    excess[pred.get("auto_exact", pred["exact"])] = np.inf
     return np.stack([-pred["confidence"], pred["normal_spread_deg"], pred["point_spread"],
                      excess]).astype(np.float64)
 

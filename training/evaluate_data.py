@@ -71,8 +71,9 @@ def datagen_config(manifest: dict) -> DatagenConfig:
 
 
 def held_out_rows(scene: Scene, index: int, rows: int, seed: int,
-              datagen: DatagenConfig) -> dict[str, np.ndarray]:
-    """Held-out labelled rows of ``scene.pairs[index]`` (module docstring).
+                  datagen: DatagenConfig, suffix: int = EVAL_STREAM) -> dict[str, np.ndarray]:
+    """Held-out labelled rows of ``scene.pairs[index]`` (module docstring), from the stream
+    ``suffix`` under the pair's seed (:data:`EVAL_STREAM`; the validation gate uses its own).
 
     Returns
     -------
@@ -82,7 +83,7 @@ def held_out_rows(scene: Scene, index: int, rows: int, seed: int,
     """
     pair = scene.pairs[index]
     size_a, size_b = scene.pair_sizes()[index]
-    data = generate_pairs(size_a, size_b, rows, stream(pair_seed(seed, pair), EVAL_STREAM),
+    data = generate_pairs(size_a, size_b, rows, stream(pair_seed(seed, pair), suffix),
                           datagen, depth_fraction=scene.depth_fraction, progress=False)
     data["edge"] = float(scene.smaller_shortest_edge(pair))
     return data

@@ -4,7 +4,7 @@ early-stopped on its own validation rows.
 Stages of :func:`fit`:
 
 1. Each group g owns a set of training rows and of validation rows (indices into shared
-   tensors); a classifier or the single MLP is one group over all rows, the experts of a pair
+   tensors); the single MLP is one group over all rows, the experts of a pair
    are one group per (region, member).
 2. An epoch is ``steps_per_epoch`` Adam steps; each step draws ``batch_size`` rows per group
    uniformly with replacement from that group's rows (a small region is revisited more often,

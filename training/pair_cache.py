@@ -11,7 +11,7 @@ hashes, so a cached result with the same key *is* the result that training would
   transitively), so an edit of the training code retrains instead of reusing stale models.
 
 The pair's position in the scene is not hashed: tensor and network names carry the pair's index
-(``p3_classifier``), and :func:`reprefix` renames them when a pair moves.
+(``p3_r2_m0``), and :func:`reprefix` renames them when a pair moves.
 
 Storage: one folder per key, ``<root>/<key>/`` with ``tensors.safetensors`` (the networks),
 ``rows.safetensors`` (the per-row test record that scene figures pool) and ``entry.json``
@@ -154,7 +154,7 @@ class PairCache:
             entry = json.loads((folder / _ENTRY).read_text(encoding="utf-8"))
             tensors = safetensors.numpy.load_file(str(folder / _TENSORS))
             rows = safetensors.numpy.load_file(str(folder / _ROWS))
-        except (OSError, ValueError, json.JSONDecodeError):
+        except Exception:  # noqa: BLE001 - safetensors' errors derive from Exception only
             return None  # no entry (or a damaged one, which is retrained and overwritten)
         if entry.get("format") != CACHE_FORMAT or entry.get("key") != scene.pairs[index].key:
             return None
@@ -177,6 +177,9 @@ class PairCache:
             safetensors.numpy.save_file(dict(result.tensors), str(tmp / _TENSORS))
             safetensors.numpy.save_file(dict(result.test_rows), str(tmp / _ROWS))
             (tmp / _ENTRY).write_text(text + "\n", encoding="utf-8")
+            for name in (_TENSORS, _ROWS, _ENTRY):  # on disk before the rename makes it valid
+                with open(tmp / name, "rb") as handle:
+                    os.fsync(handle.fileno())
             shutil.rmtree(folder, ignore_errors=True)  # a damaged entry of the same key
             os.rename(tmp, folder)
         except BaseException:

@@ -15,8 +15,9 @@ Stages of :func:`make_pair_data`:
 4. Region classes (:func:`region_classes`): ``"none"`` first, then every face-axis region with
    at least ``min_region_rows`` training rows, most frequent first. Rarer regions get no
    class and no committee: their rows are labelled -1, and at inference the exact solver
-   answers them (see :mod:`training.train_committee`). Edge-edge rows (labelled -2) need no
-   committee: the region labeller gives their point exactly.
+   answers them (see :mod:`training.train_committee`). Edge-edge rows and face rows with
+   nothing to clip (labelled -2) need no committee: the region labeller gives their point
+   exactly (:func:`models.region_label.nothing_clipped`).
 """
 from __future__ import annotations
 
@@ -33,8 +34,8 @@ INPUT_KEYS = ("size_a", "position_a", "quaternion_a", "size_b", "position_b", "q
 
 #: Label of rows whose region has no class (too rare for a committee; answered exactly).
 UNSURE_LABEL = -1
-#: Label of edge-edge rows: the region labeller gives their point exactly (the closest points
-#: of the two edges), so they need no committee.
+#: Label of the rows whose point the region labeller gives exactly (edge-edge: the closest
+#: points of the two edges; face contacts with nothing to clip), so they need no committee.
 EXACT_POINT_LABEL = -2
 #: Region keys of edge-edge contacts start with this.
 _EDGE_EDGE_PREFIX = "edge-edge:"
@@ -110,7 +111,8 @@ def split_rows(n: int, config: PairDataConfig, seed: np.random.SeedSequence) -> 
     return {name: np.sort(part).astype(np.int64) for name, part in parts.items()}
 
 
-def region_classes(keys: np.ndarray, train: np.ndarray, min_rows: int):
+def region_classes(keys: np.ndarray, train: np.ndarray, min_rows: int,
+                   exact_point: np.ndarray | None = None):
     """Classes and labels of every row (see the module docstring, stage 4).
 
     Returns
@@ -119,9 +121,12 @@ def region_classes(keys: np.ndarray, train: np.ndarray, min_rows: int):
         ``"none"`` then the regions with >= ``min_rows`` training rows, by count, then key.
     labels : ndarray of int64, shape (n,)
         Class index of every row, :data:`UNSURE_LABEL` for rows of rarer regions,
-        :data:`EXACT_POINT_LABEL` for edge-edge rows (no committee: their point is exact).
+        :data:`EXACT_POINT_LABEL` for edge-edge rows and the rows ``exact_point`` flags (n,)
+        (no committee: the region labeller's point is exact; they do not count for
+        ``min_rows``).
     """
-    names, counts = np.unique(keys[train], return_counts=True)
+    exact_point = np.zeros(len(keys), bool) if exact_point is None else exact_point
+    names, counts = np.unique(keys[train][~exact_point[train]], return_counts=True)
     kept = [(-c, str(k)) for k, c in zip(names, counts) if c >= min_rows and k != cn.NONE_KEY
             and not str(k).startswith(_EDGE_EDGE_PREFIX)]
     regions = [cn.NONE_KEY] + [k for _, k in sorted(kept)]
@@ -129,7 +134,9 @@ def region_classes(keys: np.ndarray, train: np.ndarray, min_rows: int):
     unique, inverse = np.unique(keys, return_inverse=True)
     table = np.array([EXACT_POINT_LABEL if str(k).startswith(_EDGE_EDGE_PREFIX)
                       else lookup.get(str(k), UNSURE_LABEL) for k in unique], dtype=np.int64)
-    return regions, table[inverse.reshape(-1)]
+    labels = table[inverse.reshape(-1)]
+    labels[exact_point] = EXACT_POINT_LABEL
+    return regions, labels
 
 
 def make_pair_data(size_a, size_b, seed: np.random.SeedSequence,
@@ -151,10 +158,12 @@ def make_pair_data(size_a, size_b, seed: np.random.SeedSequence,
     rows = generate_pairs(size_a, size_b, config.rows, seed, datagen,
                           depth_fraction=depth_fraction, progress=False)
     arrays = cn.learning_arrays(rows)
-    unclipped = unclipped_points(*(rows[k] for k in INPUT_KEYS))
+    unclipped, exact_point = unclipped_points(*(rows[k] for k in INPUT_KEYS))
+    exact_point &= rows["colliding"]
     baseline = cn.learning_arrays({**rows, "point": unclipped}).targets[:, :3]
     split = split_rows(config.rows, config, stream(seed, SPLIT_STREAM))
-    regions, labels = region_classes(arrays.keys, split["train"], config.min_region_rows)
+    regions, labels = region_classes(arrays.keys, split["train"], config.min_region_rows,
+                                     exact_point)
     half_a, half_b = np.asarray(size_a, float)[None] / 2, np.asarray(size_b, float)[None] / 2
     scale, edge = cn.pair_lengths(half_a, half_b)
     return PairData(arrays.features, arrays.targets, arrays.keys, labels, regions, split,

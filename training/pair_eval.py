@@ -24,7 +24,9 @@ from __future__ import annotations
 import numpy as np
 
 from models import canonical as cn
+from models.contacts import CONTACT_TYPES
 from models.mlp import MLP, MLPSpec, MLPStack
+from models.pair_runtime import AUTO_EXACT_TYPES
 from training.pair_data import EXACT_POINT_LABEL, UNSURE_LABEL, PairData
 
 #: Error (degrees and fraction of e) of a row predicted "none" that is a contact or vice versa:
@@ -41,13 +43,6 @@ def build_mlps(tensors: dict, mlps: dict) -> dict[str, MLP]:
     """The inference side's MLP of every manifest entry in ``mlps``."""
     return {name: MLP.from_tensors(name, tensors, MLPSpec.from_dict(entry))
             for name, entry in mlps.items()}
-
-
-def softmax(logits: np.ndarray) -> np.ndarray:
-    """Row-wise softmax (n, R) in float64."""
-    z = np.asarray(logits, np.float64)
-    z = np.exp(z - z.max(axis=1, keepdims=True))
-    return z / z.sum(axis=1, keepdims=True)
 
 
 def _max_pairwise(vectors: np.ndarray, angle: bool) -> np.ndarray:
@@ -148,6 +143,10 @@ def evaluate_rows(data: PairData, split: str, models: dict[str, MLP], blocks: di
     pred_contact = pred["region"] != 0
     pred["true_region"] = data.labels[rows]
     pred["true_contact"] = true_contact
+    untrusted = np.zeros(len(rows), bool)  # models.pair_runtime.AUTO_EXACT_TYPES, clipped
+    for code in AUTO_EXACT_TYPES:
+        untrusted |= np.char.startswith(data.keys[rows].astype(str), CONTACT_TYPES[code] + ":")
+    pred["auto_exact"] = pred["exact"] | (untrusted & (pred["true_region"] >= 1))
     pred["errors"] = contact_errors(pred["output"], pred_contact, targets, true_contact,
                                     data.scale, data.edge)
     if single is not None:
@@ -166,7 +165,8 @@ def committee_metrics(pred: dict) -> dict:
         "region_accuracy": float((pred["region"] == pred["true_region"]).mean()),
         "missed_contact_share": float(((pred["region"] == 0) & pred["true_contact"]).mean()),
         "false_contact_share": float(((pred["region"] != 0) & ~pred["true_contact"]).mean()),
-        "unsure_region_share": float((pred["true_region"] < 0).mean()),
+        "no_committee_share": float((pred["true_region"] == UNSURE_LABEL).mean()),  # exact
+        "exact_point_share": float((pred["true_region"] == EXACT_POINT_LABEL).mean()),
         "committee": {"normal_deg": summarise(errors["normal_deg"][both]),
                       "point_fraction": summarise(errors["point"][both]),
                       "depth_fraction": summarise(errors["depth"][both])},

@@ -20,11 +20,11 @@ from training.sweep import OBJECTIVES, public_url, state_counts
 from training.sweep_space import SweepSpace, config_from_params
 
 #: Columns of the Markdown table: (header, row key, format).
-_COLUMNS = (("trial", "number", "{}"), ("committee normal p99 (deg)", "normal_p99", "{:.3g}"),
+_COLUMNS = (("trial", "number", "{}"), ("auto fallback", "fallback", "{:.1%}"),
             ("committee point p99 (of edge)", "point_p99", "{:.3g}"),
             ("auto us/pair", "auto_us", "{:.3g}"), ("committee us/pair", "committee_us",
                                                     "{:.3g}"),
-            ("auto fallback", "auto_fallback_share", "{:.1%}"),
+            ("committee normal p99 (deg)", "normal_p99", "{:.3g}"),
             ("auto p99 normal / point", "auto_p99", "{}"), ("meets tolerance", "meets", "{}"),
             ("params", "params_text", "{}"))
 
@@ -65,7 +65,7 @@ def pick(rows: list[dict]) -> dict | None:
     eligible = [r for r in rows if r["meets"]]
     if not eligible:
         return None
-    return min(eligible, key=lambda r: (r["auto_us"], r["normal_p99"], r["point_p99"],
+    return min(eligible, key=lambda r: (r["auto_us"], r["fallback"], r["point_p99"],
                                         r["number"]))
 
 
@@ -90,7 +90,7 @@ def plot_front(rows: list[dict], path: Path, scene: Scene, picked: dict | None) 
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
-    for ax, key, label in ((axes[0], "normal_p99", "committee normal p99 (deg)"),
+    for ax, key, label in ((axes[0], "fallback", "auto fallback share"),
                            (axes[1], "point_p99", "committee point p99 (fraction of edge)")):
         for subset, style in (([r for r in rows if not r["front"]], dict(c="0.7", s=14)),
                               ([r for r in rows if r["front"]], dict(c="C0", s=28))):

@@ -1,7 +1,7 @@
 """Stacked MLPs in PyTorch: G independent networks of one shape, trained and run together.
 
-The learned predictors need many small networks per body pair: a classifier, a single MLP and
-K experts for each of tens of canonical regions. Training them one by one spends most of the
+The learned predictors need many small networks per body pair: a single MLP and K experts for
+each of tens of canonical regions. Training them one by one spends most of the
 time in Python and tiny matrix products. :class:`StackedMLP` holds G networks of the same layer
 widths as parameter tensors with a leading group axis, ``w_k (G, out, in)``, ``b_k (G, out)``,
 and evaluates all of them on a (G, B, in) batch with one ``torch.baddbmm`` per layer, so one
@@ -9,8 +9,8 @@ optimiser step trains every group. Groups never mix: the loss is a sum of per-gr
 Adam is elementwise, so each group follows the trajectory it would follow alone.
 
 Every group carries the normalisation of the inference contract (docs/learned_predictors.md):
-inputs ``(x - in_mean) / in_scale``, outputs ``y * out_scale + out_mean`` (a classifier keeps 0
-and 1). :meth:`StackedMLP.export` writes group g as the contract's tensors ``<m>.w0, <m>.b0, ...,
+inputs ``(x - in_mean) / in_scale``, outputs ``y * out_scale + out_mean``.
+:meth:`StackedMLP.export` writes group g as the contract's tensors ``<m>.w0, <m>.b0, ...,
 <m>.in_mean, <m>.in_scale, <m>.out_mean, <m>.out_scale`` (float32, weights (out, in)).
 """
 from __future__ import annotations
@@ -28,6 +28,13 @@ ACTIVATIONS = {"tanh": torch.tanh, "relu": torch.relu}
 #: Floor (in the column's own unit) below which a standard deviation counts as zero: the
 #: column is constant (e.g. the normal of a face region) and is only centred, scale 1.
 STD_FLOOR = 1e-9
+#: Smallest input scale of a network (the features' own units: pose-v1 entries are O(1)).
+#: Inference computes the features in float32 (rounding ~6e-8 near 1); a column that is nearly
+#: constant in a region (an entry of R' near +-1 in a face-face region spreads by ~1e-7)
+#: divided by its own spread would turn that rounding into whole normalised units, and the
+#: answer of one pair would depend on the batch it arrives in. At 1e-3 the rounding stays
+#: below 1e-4 normalised units.
+INPUT_SCALE_FLOOR = 1e-3
 
 
 def n_parameters(spec: MLPSpec) -> int:
@@ -41,6 +48,13 @@ def column_statistics(x: np.ndarray, floor: float = STD_FLOOR) -> tuple[np.ndarr
     mean = x.mean(axis=0)
     std = x.std(axis=0)
     return mean, np.where(std > floor, std, 1.0)
+
+
+def input_statistics(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and scale of network inputs (n, d): the standard deviation, at least
+    :data:`INPUT_SCALE_FLOOR`."""
+    x = np.asarray(x, dtype=np.float64)
+    return x.mean(axis=0), np.maximum(x.std(axis=0), INPUT_SCALE_FLOOR)
 
 
 class StackedMLP(nn.Module):
@@ -99,7 +113,7 @@ class StackedMLP(nn.Module):
         return h
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """Raw inputs x (G, B, in) -> raw outputs (G, B, out) (logits for a classifier)."""
+        """Raw inputs x (G, B, in) -> raw outputs (G, B, out)."""
         y = self.forward_normalised(self.normalise_inputs(x))
         return y * self.out_scale[:, None] + self.out_mean[:, None]
 

@@ -34,7 +34,7 @@ from models.mlp import MLPSpec
 from models.scenes import Accuracy
 from training.fit import FitConfig, FitRecord, GroupRows, fit
 from training.pair_data import PairData
-from training.torch_mlp import StackedMLP, column_statistics
+from training.torch_mlp import StackedMLP, column_statistics, input_statistics
 from training.train_single import contact_loss, loss_weights, output_tolerances
 
 
@@ -47,7 +47,7 @@ class CommitteeConfig:
     expert_activation: str = "tanh"  # expert hidden activation (smooth regression)
     members: int = 3  # K experts per region
     expert_fit: FitConfig = field(default_factory=lambda: FitConfig(
-        batch_size=256, steps_per_epoch=200, max_epochs=80, patience=80,
+        batch_size=256, steps_per_epoch=200, max_epochs=80, patience=20,
         learning_rate=3e-3, val_rows=4096))  # experts' optimisation (all groups at once)
     expert_aux_weight: float = 0.1  # loss weight of the normal and depth columns relative
     # to the point's (they are auxiliary: inference takes both from the exact labeller)
@@ -77,7 +77,7 @@ def train_experts(data: PairData, accuracy: Accuracy, config: CommitteeConfig,
     groups = len(train)
     model = StackedMLP(config.expert_spec(), groups, generator)
     targets = data.expert_targets()
-    stats = [column_statistics(data.features[r]) + column_statistics(targets[r])
+    stats = [input_statistics(data.features[r]) + column_statistics(targets[r])
              for r in train]
     in_mean, in_scale, out_mean, out_scale = (np.stack(s) for s in zip(*stats))
     model.set_normalisation(in_mean, in_scale, out_mean, out_scale)

@@ -45,7 +45,7 @@ from models.scenes import Scene
 from training.bundle_reuse import open_current
 from training.pair_cache import PairCache
 from training.train import TrainConfig, build_manifest, train_pairs
-from training.validation_gate import GateConfig, GateResult, validation_gate
+from training.validation_gate import GateConfig, GateResult, served_checks, validation_gate
 
 #: Default cache folder inside a store (hidden: not a version, not part of the served bundle).
 CACHE_SUBDIR = Path(".cache") / "pairs"
@@ -147,6 +147,8 @@ def run_train_job(scene: Scene, out, config: TrainConfig | None = None,
     manifest["training"]["reused_from"] = dict(reused)
     manifest.update(annotate or {})
     gate = validation_gate(manifest, scene, job.gate)
+    served = served_checks(manifest, tensors, scene, job.gate)
+    gate = GateResult(gate.passed and all(c["met"] for c in served), gate.checks + served)
     manifest["validation_gate"] = {**gate.to_dict(), "enforced": job.enforce_gate}
     accepted = gate.passed or not job.enforce_gate
     version = _unique_version(store, manifest["version"])

@@ -24,7 +24,7 @@ from models.mlp import MLPSpec
 from models.scenes import Accuracy
 from training.fit import FitConfig, FitRecord, GroupRows, fit
 from training.pair_data import PairData
-from training.torch_mlp import StackedMLP, column_statistics
+from training.torch_mlp import StackedMLP, column_statistics, input_statistics
 
 #: Depth tolerance of the loss, as a fraction of the pair's shortest edge (a twentieth of the
 #: default scene's depth range): the depth also tells ``auto`` whether a pair is in range,
@@ -95,7 +95,7 @@ def train_single(data: PairData, accuracy: Accuracy, config: SingleConfig,
     """
     train, val = data.rows("train", colliding=True), data.rows("val", colliding=True)
     model = StackedMLP(config.spec(), 1, generator)
-    in_mean, in_scale = column_statistics(data.features[train])
+    in_mean, in_scale = input_statistics(data.features[train])
     out_mean, out_scale = column_statistics(data.targets[train])
     model.set_normalisation(in_mean, in_scale, out_mean, out_scale)
     weights = loss_weights(out_scale, output_tolerances(accuracy, data.scale, data.edge))

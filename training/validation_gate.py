@@ -14,6 +14,13 @@
    :attr:`GateConfig.max_fallback_share` (default 1.0, i.e. no bound: falling back is slow,
    never wrong; bound it to refuse a bundle that would mostly not be used).
 
+4. the same bounds hold for the **served** predictor (:func:`served_checks`): the bundle's
+   ``auto`` as ``models.load_predictor`` runs it (float32 features, the exact labeller, the
+   dispatch), on :attr:`GateConfig.served_rows` fresh rows per pair from a stream no training
+   or evaluation run draws from, against the exact solver. The training-side figures above
+   come from the same networks on the training code's features; this check catches what
+   only the serving path could get wrong.
+
 The same checks are listed for the pooled test figures of all pairs (``figures.test``), for
 the record; the verdict is per pair, since every pair is served on its own.
 """
@@ -22,6 +29,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from models.scenes import Scene
+
+#: Stream of the served check's rows under each pair's seed (training draws from chunk
+#: indices, 1_000_001 and 2_000_00x; ``impactnet evaluate`` from 3_000_001).
+SERVED_STREAM = 5_000_001
 
 #: The percentile of ``auto``'s test errors that the scene's tolerance bounds.
 GATE_PERCENTILE = "p99"
@@ -34,6 +45,7 @@ class GateConfig:
     normal_deg: float | None = None  # bound on auto's p99 normal error, degrees
     point_fraction: float | None = None  # bound on auto's p99 point error, fraction of edge
     max_fallback_share: float = 1.0  # largest share of test rows auto may give to exact
+    served_rows: int = 5000  # fresh rows per pair for the served check (0: skip it)
 
 
 @dataclass
@@ -73,6 +85,49 @@ def _auto_checks(where: str, auto: dict, bounds: tuple[float, float, float]) -> 
             _check(f"{where} auto fallback share", auto["fallback_share"], fallback)]
 
 
+def _bounds(scene: Scene, config: GateConfig) -> tuple[float, float, float]:
+    return (scene.accuracy.normal_deg if config.normal_deg is None else config.normal_deg,
+            (scene.accuracy.point_fraction if config.point_fraction is None
+             else config.point_fraction),
+            config.max_fallback_share)
+
+
+def served_checks(manifest: dict, tensors: dict, scene: Scene,
+                  config: GateConfig | None = None) -> list[dict]:
+    """Check 4 of the module docstring: the served ``auto`` of the candidate bundle
+    (``manifest`` and ``tensors``, not yet written) on fresh rows of every pair."""
+    from models import load_predictor
+    from models.bundles import bundle_in_memory
+    from training.evaluate_data import INPUTS, datagen_config, held_out_rows
+    from training.evaluate_metrics import row_record
+
+    config = config or GateConfig()
+    if config.served_rows <= 0:
+        return []
+    auto = load_predictor("auto", bundle_in_memory(manifest, tensors))
+    seed = int((manifest.get("seeds") or {}).get("data", 0))
+    checks = []
+    for index, pair in enumerate(scene.pairs):
+        data = held_out_rows(scene, index, config.served_rows, seed,
+                             datagen_config(manifest), SERVED_STREAM)
+        record = row_record(auto(*(data[k] for k in INPUTS)), data, "auto")
+        both = record.both
+        figures = {"normal_deg": {GATE_PERCENTILE: _p99(record.normal_deg[both])},
+                   "point_fraction": {GATE_PERCENTILE: _p99(record.point_pct[both] / 100.0)},
+                   "fallback_share": float(record.fallback.mean())}
+        missed = int((record.colliding != record.predicted).sum())
+        checks += _auto_checks(f"{pair.key} served", figures, _bounds(scene, config))
+        checks.append(_check(f"{pair.key} served contact flags differing from exact", missed,
+                             0))
+    return checks
+
+
+def _p99(values) -> float | None:
+    import numpy as np
+
+    return float(np.percentile(values, 99)) if len(values) else None
+
+
 def validation_gate(manifest: dict, scene: Scene, config: GateConfig | None = None) -> GateResult:
     """Check a bundle manifest against ``scene`` (see the module docstring).
 
@@ -86,10 +141,7 @@ def validation_gate(manifest: dict, scene: Scene, config: GateConfig | None = No
         Other bounds.
     """
     config = config or GateConfig()
-    bounds = (scene.accuracy.normal_deg if config.normal_deg is None else config.normal_deg,
-              (scene.accuracy.point_fraction if config.point_fraction is None
-               else config.point_fraction),
-              config.max_fallback_share)
+    bounds = _bounds(scene, config)
     built_for = manifest.get("scene") or {}
     checks = [{"what": "scene name and hash", "value": None, "bound": None,
                "met": built_for == {"name": scene.name, "hash": scene.hash()}}]

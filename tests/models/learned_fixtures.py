@@ -65,7 +65,7 @@ def fit_pair(key, size_a, size_b, seed=0):
     mlps[f"{tag}.single"] = _elm(x[hit], data.targets[hit].astype(np.float64), seed + 2)
     residual = data.targets.astype(np.float64)
     unclipped = cn.learning_arrays({**rows, "point": unclipped_points(
-        *(rows[k] for k in INPUT_KEYS))}).targets[:, :3]
+        *(rows[k] for k in INPUT_KEYS))[0]}).targets[:, :3]
     residual[:, :3] -= unclipped
     experts = {}
     for r, region in enumerate(frequent):

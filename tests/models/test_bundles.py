@@ -170,13 +170,13 @@ def test_a_crash_mid_write_leaves_the_previous_bundle_intact(tmp_path, monkeypat
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     manifest2, tensors2, _ = content(seed=5)
     if crash == "manifest":
-        real = bd._write_file
+        real = bd.write_file
 
         def failing(path, data):
             if path.name == bd.MANIFEST:
                 raise OSError("disk full")
             real(path, data)
-        monkeypatch.setattr(bd, "_write_file", failing)
+        monkeypatch.setattr(bd, "write_file", failing)
     else:
         real_rename, calls = bd.os.rename, []
 

@@ -17,6 +17,7 @@ from models.bundles import BundleError, read_bundle
 from models.contacts import CONTACT_TYPES
 from models.exact import box_box
 from models.pair_dispatch import UnsupportedPairError
+from models.region_label import unclipped_points
 from models.rotations import quaternion_multiply, quaternion_to_matrix, random_quaternions
 from training.datagen import generate_pairs
 
@@ -110,7 +111,11 @@ def test_battery_batch_of_one_equals_a_row(predictor):
             np.testing.assert_allclose(getattr(one, name)[0], getattr(batch, name)[i],
                                        atol=LEARNED_TOL_REL * scale, err_msg=name)
         np.testing.assert_allclose(one.confidence[0], batch.confidence[i], atol=1e-5)
-    assert flips <= max(1, REGION_FLIP_MAX * len(args[0]) / 23)
+    # the committee's labels are the exact labeller's on both paths (bit-identical); only
+    # auto's float32 spread test may decide a row differently at its threshold
+    allowed = max(1, REGION_FLIP_MAX * len(args[0]) / 23) if repr(predictor).startswith(
+        "<auto") else 0
+    assert flips <= allowed
 
 
 def _moved(args, q, shift):
@@ -156,21 +161,21 @@ def test_battery_swapped_pair_is_flipped(predictor):
     np.testing.assert_array_equal(s.colliding, c.colliding)
 
 
-def test_learned_answers_mean_something(bundle):
+def test_committee_labels_are_the_exact_solvers_and_its_point_beats_single(bundle):
+    """The committee's colliding flag, type, features, axis, normal and depth are the exact
+    solver's, bit for bit (its region classifier is the exact labeller); its point comes from
+    the experts and is better than the single network's."""
     args = pair_rows("brick/slab", 3000, seed=21)
     exact = box_box(*args)
+    c = models.load_predictor("committee", bundle)(*args)
+    for name in ("colliding", "contact_type_code", "feature_a", "feature_b", "axis", "normal",
+                 "depth"):
+        np.testing.assert_array_equal(getattr(c, name), getattr(exact, name), err_msg=name)
+    single = models.load_predictor("single", bundle)(*args)
     hit = exact.colliding
-    errors = {}
-    for name in ("single", "committee"):
-        c = models.load_predictor(name, bundle)(*args)
-        cosine = np.clip((c.normal * exact.normal).sum(1), -1, 1)
-        errors[name] = np.degrees(np.arccos(cosine))[hit & c.colliding]
-        if name == "committee":
-            right = (c.contact_type_code == exact.contact_type_code) & \
-                (c.feature_a == exact.feature_a) & (c.feature_b == exact.feature_b)
-            assert right.mean() > 0.25
-            assert np.median(np.degrees(np.arccos(cosine))[right & hit]) < 6.0
-    assert np.median(errors["committee"]) < np.median(errors["single"]) < 30.0
+    point_error = {name: np.linalg.norm(p.point - exact.point, axis=1)[hit]
+                   for name, p in (("committee", c), ("single", single))}
+    assert np.median(point_error["committee"]) < 0.5 * np.median(point_error["single"])
 
 
 @pytest.mark.parametrize("name", ["single", "committee"])
@@ -257,19 +262,22 @@ def test_auto_sends_exactly_the_unsure_rows_to_exact(tmp_path, content, auto, sh
     c = committee.contacts
     edge = np.full(len(c), 0.3)  # brick/slab rows (0:200, 500:): shortest edge 0.3 m
     edge[200:500] = 1.0  # the cube rows
-    unsure = ((c.predictor == "exact")  # a region without a committee: exact in both modes
+    exact_point = unclipped_points(*args)[1]
+    untrusted = c.colliding & (c.contact_type_code == ct.FACE_FACE) & ~exact_point
+    unsure = (untrusted  # auto never trusts the experts on a clipped face-face contact
+              | (c.predictor == "exact")  # a region without a committee: exact in both modes
               | (c.confidence < auto["confidence_min"])
               | (committee.normal_spread > auto["normal_spread_max_deg"])
               | (committee.point_spread > np.float32(auto["point_spread_max"] * edge)))
     result = models.load_predictor("auto", bundle).predict(*args)
     a = result.contacts
     np.testing.assert_array_equal(a.predictor == "exact", unsure)
-    # "all": every contact with a learned point; separated and edge-edge rows are the exact
-    # labeller's answers, kept as they are
-    learned_unsure = unsure & (c.predictor != "exact")
-    learned_point = c.colliding & (c.contact_type_code != ct.EDGE_EDGE)
+    # "all": every contact with a learned point; separated rows and rows whose unclipped point
+    # is exact are the labeller's answers, kept as they are
+    learned_unsure = unsure & (c.predictor != "exact") & ~untrusted
+    learned_point = c.colliding & ~exact_point
     assert {"all": (unsure == learned_point).all(), "none": not learned_unsure.any(),
-            "some": 0.05 < unsure.mean() < 0.95}[share], unsure.mean()
+            "some": 0.05 < unsure[learned_point].mean() < 0.95}[share], unsure.mean()
     exact = box_box(*(x[unsure] for x in args))
     for name, value in exact.arrays().items():
         np.testing.assert_array_equal(getattr(a, name)[unsure], value, err_msg=name)
@@ -308,3 +316,24 @@ def test_committees_of_different_sizes_and_architectures(tmp_path, content):
         np.testing.assert_allclose(one.contacts.point[0], batch.contacts.point[i], atol=4e-5)
         np.testing.assert_allclose(one.normal_spread[0], batch.normal_spread[i], atol=1e-2)
         np.testing.assert_allclose(one.point_spread[0], batch.point_spread[i], atol=1e-4)
+
+
+def test_swapped_request_at_an_exact_tie_is_named_as_the_exact_solver_names_it(bundle):
+    """Regression: a request in the bundle's other order (slab, brick) lying flat and aligned
+    ties A's and B's face axes; the exact solver names A's face (axis 2). The committee used to
+    label the pair in the bundle's order and name B's face (axis 5)."""
+    n = 50
+    rng = np.random.default_rng(3)
+    position_b = np.column_stack([rng.uniform(-0.4, 0.4, n), rng.uniform(-0.3, 0.3, n),
+                                  np.full(n, 0.15 + 0.2 - 0.001)])
+    args = [np.array(PAIRS["brick/slab"][1]), np.zeros(3), np.array([1.0, 0, 0, 0]),
+            np.array(PAIRS["brick/slab"][0]), position_b, np.array([1.0, 0, 0, 0])]
+    exact = box_box(*args)
+    assert (exact.axis == 2).all()
+    for name in ("committee", "auto"):
+        predictor = models.load_predictor(name, bundle)
+        batch = predictor(*args)
+        one = predictor(*(a if a.ndim == 1 else a[0] for a in args))
+        for label in ("axis", "contact_type_code", "feature_a", "feature_b", "normal"):
+            np.testing.assert_array_equal(getattr(batch, label), getattr(exact, label))
+            np.testing.assert_array_equal(getattr(one, label)[0], getattr(exact, label)[0])

@@ -11,6 +11,16 @@ from tests.models.helpers import KEYS
 from tests.models.test_exact_scalar import family_poses
 from training.datagen import generate_pairs
 
+#: Agreement (x the pair's size) of a point computed along two paths of float64 arithmetic.
+POINT_AGREEMENT_REL = 1e-9
+#: A point farther than this (x the size) from the exact one was changed by the clipping.
+CLIPPED_REL = 1e-6
+#: Share of vertex contacts whose incident face stays inside the reference face (measured:
+#: ~0.92-0.97 on the pose families; the rest cross its boundary while still below it).
+VERTEX_UNCLIPPED_SHARE_MIN = 0.9
+#: Rounding (x the size) of one float64 operation chain over a few dozen terms.
+ROUNDING_REL = 1e-12
+
 _LABEL_FIELDS = (("colliding", "colliding"), ("axis", "axis"), ("depth", "depth"),
                  ("code", "contact_type_code"), ("feature_a", "feature_a"),
                  ("feature_b", "feature_b"))
@@ -54,7 +64,7 @@ def test_one_pair_labels_equal_the_scalar_exact_solver():
     p = family_poses(per_case=12, seed=3)
     for i in range(len(p["size_a"])):
         values = single_pair(*(p[k][i] for k in KEYS))
-        colliding, axis, depth, normal, code, feature_a, feature_b, _ = label_one(values)
+        colliding, axis, depth, normal, code, feature_a, feature_b, _, _ = label_one(values)
         exact = box_box_one(*values)
         assert (colliding, axis, depth, code, feature_a, feature_b) == (
             exact.colliding[0], exact.axis[0], exact.depth[0], exact.contact_type_code[0],
@@ -62,22 +72,29 @@ def test_one_pair_labels_equal_the_scalar_exact_solver():
         assert normal == exact.normal[0].tolist(), i
 
 
-def test_unclipped_point_is_the_exact_point_where_nothing_is_clipped():
-    """Edge-edge contacts never need clipping: their unclipped point is the exact point. A
-    vertex contact needs it only where the incident edges leave the reference face while still
-    below it (a few rows); tilted face contacts often (clamping is not clipping)."""
-    p = family_poses(per_case=60, seed=11)
+def unclipped_errors(per_case: int, seed: int):
+    """Exact answers, labels and the unclipped point's error (x the pair's size) on the pose
+    families."""
+    p = family_poses(per_case=per_case, seed=seed)
     inputs = prepare_inputs(*(p[k] for k in KEYS))
     exact = box_box_batch(*inputs)
     labels = label_block(lf.input_columns(inputs, 0, len(exact)))
     size = np.maximum(inputs[0].max(1), inputs[3].max(1))
     error = np.linalg.norm(labels.unclipped.T - exact.point, axis=1) / size
+    return exact, labels, error
+
+
+def test_unclipped_point_is_the_exact_point_where_nothing_is_clipped():
+    """Edge-edge contacts never need clipping: their unclipped point is the exact point. A
+    vertex contact needs it only where the incident edges leave the reference face while still
+    below it (a few rows); tilted face contacts often (clamping is not clipping)."""
+    exact, labels, error = unclipped_errors(per_case=60, seed=11)
     edges = exact.contact_type_code == 3
     vertex = np.isin(exact.contact_type_code, [1, 2])  # vertex-face, face-vertex
     assert edges.sum() > 100 and vertex.sum() > 100
-    assert error[edges].max() < 1e-9
-    assert (error[vertex] < 1e-9).mean() > 0.9
-    assert (error[exact.colliding] > 1e-6).any()  # clipped rows exist: not trivial
+    assert error[edges].max() < POINT_AGREEMENT_REL
+    assert (error[vertex] < POINT_AGREEMENT_REL).mean() > VERTEX_UNCLIPPED_SHARE_MIN
+    assert (error[exact.colliding] > CLIPPED_REL).any()  # clipped rows exist: not trivial
 
 
 def test_aligned_boxes_overlapping_anywhere_give_the_exact_point():
@@ -94,7 +111,8 @@ def test_aligned_boxes_overlapping_anywhere_give_the_exact_point():
     exact = box_box_batch(*inputs)
     labels = label_block(lf.input_columns(inputs, 0, n))
     assert (exact.contact_type_code == 6).all()
-    np.testing.assert_allclose(labels.unclipped.T, exact.point, atol=1e-12 * 12.192)
+    np.testing.assert_allclose(labels.unclipped.T, exact.point, atol=ROUNDING_REL * 12.192)
+    assert labels.exact_point.all()  # aligned and fully touching: flagged exact
 
 
 def test_one_pair_unclipped_point_equals_the_batch():
@@ -103,6 +121,20 @@ def test_one_pair_unclipped_point_equals_the_batch():
     labels = label_block(lf.input_columns(inputs, 0, len(inputs[0])))
     for i in range(len(p["size_a"])):
         values = [a[i].tolist() for a in inputs]
-        one = label_one(values)[7]
+        exact, one = label_one(values)[7:]
+        assert exact == labels.exact_point[i], i
         scale = max(values[0]) + max(values[3])
-        np.testing.assert_allclose(one, labels.unclipped[:, i], rtol=0, atol=1e-12 * scale * 40)
+        np.testing.assert_allclose(one, labels.unclipped[:, i], rtol=0,
+                                   atol=ROUNDING_REL * 40 * scale)
+
+
+def test_rows_flagged_exact_have_the_exact_point():
+    """``exact_point`` promises that the unclipped point is the exact solver's point: every
+    edge-edge row and the face rows whose part below the reference face lies inside it."""
+    exact, labels, error = unclipped_errors(per_case=120, seed=17)
+    flagged = labels.exact_point
+    assert not flagged[~exact.colliding].any()
+    assert flagged[exact.contact_type_code == 3].all()
+    face = exact.colliding & (exact.contact_type_code != 3)
+    assert (flagged & face).sum() > 100 and (~flagged & face).sum() > 100  # both kinds occur
+    assert error[flagged].max() < POINT_AGREEMENT_REL

@@ -37,17 +37,26 @@ def _trials_of(study, pid: int, state: str) -> list:
             if t.state.name == state and t.user_attrs.get("worker", "").endswith(f":{pid}")]
 
 
-def _wait_for_running_second_trial(study, worker: subprocess.Popen):
-    """The worker's running trial once it has completed one (so both workers contribute) and
-    has drawn its parameters (so that the kill lands in the middle of training)."""
+def _kill_in_a_trial(study, worker: subprocess.Popen):
+    """SIGKILL ``worker`` in the middle of a trial, once it has completed one (so that both
+    workers contribute); returns that trial as the storage saw it at the kill.
+
+    The worker is frozen (SIGSTOP) before its running trial is read, so the trial cannot finish
+    between the read and the kill; if it is between two trials, it is thawed and tried again.
+    """
     deadline = time.monotonic() + STUDY_TIMEOUT_S
     while time.monotonic() < deadline:
         assert worker.poll() is None, worker.stdout.read()
-        running = [t for t in _trials_of(study, worker.pid, "RUNNING") if t.params]
-        if running and _trials_of(study, worker.pid, "COMPLETE"):
-            return running[0]
+        if _trials_of(study, worker.pid, "COMPLETE"):
+            os.kill(worker.pid, signal.SIGSTOP)
+            running = [t for t in _trials_of(study, worker.pid, "RUNNING") if t.params]
+            if running:
+                os.kill(worker.pid, signal.SIGKILL)
+                worker.wait()
+                return running[0]
+            os.kill(worker.pid, signal.SIGCONT)
         time.sleep(0.02)
-    pytest.fail("the first worker never started a second trial")
+    pytest.fail("the first worker never ran a second trial")
 
 
 @pytest.mark.slow
@@ -63,9 +72,7 @@ def test_two_workers_share_a_study_and_survive_a_killed_one(postgres_server_url,
             assert time.monotonic() < deadline and first.poll() is None
             time.sleep(0.2)
     second = _worker(postgres_server_url, scene, tmp_path / "b")
-    victim = _wait_for_running_second_trial(study, first)
-    os.kill(first.pid, signal.SIGKILL)
-    first.wait()
+    victim = _kill_in_a_trial(study, first)
     out, _ = second.communicate(timeout=STUDY_TIMEOUT_S)
     assert second.returncode == 0, out
 

@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from models.mlp import MLP, MLPSpec
-from training.torch_mlp import StackedMLP, column_statistics
+from training.torch_mlp import INPUT_SCALE_FLOOR, StackedMLP, column_statistics, input_statistics
 
 #: Agreement of the inference side's float32 forward pass with torch's, relative to the output
 #: scale: float32 rounding of a few layers (the inference side folds the normalisations).
@@ -50,3 +50,13 @@ def test_column_statistics_floor_constant_columns():
     mean, scale = column_statistics(x)
     np.testing.assert_allclose(mean, [4.5, 3.0])
     assert scale[0] == pytest.approx(np.arange(10.0).std()) and scale[1] == 1.0
+
+
+def test_input_scales_never_amplify_float32_rounding():
+    """A feature nearly constant in a region (spread 1e-7, float32 rounding level) gets the
+    floor as its scale, so rounding moves the normalised input by less than 1e-4."""
+    rng = np.random.default_rng(0)
+    x = np.column_stack([rng.normal(size=1000), 1.0 - np.abs(rng.normal(size=1000)) * 1e-7])
+    mean, scale = input_statistics(x)
+    assert scale[0] == pytest.approx(x[:, 0].std()) and scale[1] == INPUT_SCALE_FLOOR
+    assert np.float32(6e-8) / scale[1] < 1e-4

@@ -20,6 +20,7 @@ from models import load_predictor
 from models.bundle_store import REJECTED, VERSIONS, current_version, resolve_bundle
 from models.bundles import WEIGHTS
 from models.scenes import Accuracy, load_scene, scene_path
+from tests.training.test_sweep import loose_scene
 from training.bundle_reuse import open_current
 from training.pair_cache import PairCache, reprefix
 from training.train import quick_config, train_pairs
@@ -56,13 +57,16 @@ def _scene_copy(path: Path, *edits: tuple[str, str]) -> Path:
 
 @pytest.fixture(scope="module")
 def paper_store(tmp_path_factory):
-    store = tmp_path_factory.mktemp("jobs") / "paper"
-    outcome = run_train_job(load_scene("paper"), store, quick_config(3), progress=False)
-    return store, outcome
+    """A store of quick models of the paper's scene with loose tolerances (quick models are
+    not meant to meet the real ones; these tests are about the store and the gate)."""
+    folder = tmp_path_factory.mktemp("jobs")
+    scene = load_scene(loose_scene(folder))
+    outcome = run_train_job(scene, folder / "paper", quick_config(3), progress=False)
+    return folder / "paper", outcome, scene
 
 
 def test_a_job_writes_a_version_and_points_current_at_it(paper_store):
-    store, outcome = paper_store
+    store, outcome, _ = paper_store
     assert outcome.published and outcome.gate.passed and outcome.previous is None
     assert current_version(store) == outcome.version == outcome.path.name
     assert outcome.path.parent == store / VERSIONS
@@ -71,10 +75,10 @@ def test_a_job_writes_a_version_and_points_current_at_it(paper_store):
 
 
 def test_failing_gate_leaves_current_untouched(paper_store):
-    store, first = paper_store
+    store, first, scene = paper_store
     before = current_version(store)
     job = JobConfig(gate=GateConfig(point_fraction=IMPOSSIBLE))
-    outcome = run_train_job(load_scene("paper"), store, quick_config(3), job, progress=False)
+    outcome = run_train_job(scene, store, quick_config(3), job, progress=False)
     assert not outcome.published and not outcome.gate.passed
     assert current_version(store) == before == first.version
     assert outcome.path.parent == store / REJECTED  # kept to inspect, never served
@@ -83,12 +87,14 @@ def test_failing_gate_leaves_current_untouched(paper_store):
 
 
 def test_gate_checks_the_scene_hash_and_every_pair(paper_store):
-    _, outcome = paper_store
+    _, outcome, scene = paper_store
     manifest = outcome.manifest
     assert not validation_gate(manifest, load_scene("quay_crane")).passed
-    assert validation_gate(manifest, load_scene("paper")).passed
-    strict = validation_gate(manifest, load_scene("paper"), GateConfig(normal_deg=IMPOSSIBLE))
+    assert validation_gate(manifest, scene).passed
+    strict = validation_gate(manifest, scene, GateConfig(normal_deg=IMPOSSIBLE))
     assert not strict.passed and strict.failures
+    served = [c for c in manifest["validation_gate"]["checks"] if " served " in c["what"]]
+    assert served and all(c["met"] for c in served)  # the served auto was checked too
 
 
 def test_cached_pairs_are_renamed_when_a_pair_moves(tmp_path):
@@ -102,6 +108,19 @@ def test_cached_pairs_are_renamed_when_a_pair_moves(tmp_path):
     again = cache.get(scene, 0, quick_config(1).pair)
     for key, value in result.tensors.items():
         np.testing.assert_array_equal(again.tensors[key], value)
+
+
+def test_a_damaged_cache_entry_is_retrained_not_fatal(tmp_path):
+    """Regression: a truncated safetensors file raised safetensors' own error (an Exception,
+    not an OSError) out of the cache instead of counting as a miss."""
+    scene = load_scene("paper")
+    cache = PairCache(tmp_path)
+    train_pairs(scene, quick_config(1), False, cache=cache)
+    (weights,) = tmp_path.glob("*/tensors.safetensors")
+    weights.write_bytes(weights.read_bytes()[:100])
+    assert cache.get(scene, 0, quick_config(1).pair) is None
+    retrained = train_pairs(scene, quick_config(1), False, cache=cache)[0]
+    assert cache.get(scene, 0, quick_config(1).pair) is not None and retrained.tensors
 
 
 def _cli(scene: Path, store: Path) -> list[str]:
