@@ -303,9 +303,8 @@ def _trial_line(trial, counts: dict[str, int], total: int) -> str:
     done = counts["COMPLETE"] + counts["PRUNED"]
     head = f"trial {trial.number} {trial.state.name.lower()}"
     if trial.values:
-        head += (f": normal p99 {trial.values[0]:.3g} deg, point p99 {trial.values[1]:.3g}, "
-                 f"auto {trial.values[2]:.3g} us/pair, fallback "
-                 f"{trial.user_attrs.get('auto_fallback_share', float('nan')):.3f}")
+        head += (f": auto fallback {trial.values[0]:.3f}, point p99 {trial.values[1]:.3g}, "
+                 f"auto {trial.values[2]:.3g} us/pair")
     return f"{head} [{done}/{total} done, {counts['RUNNING']} running]"
 
 

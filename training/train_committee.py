@@ -66,15 +66,18 @@ def _expert_rows(data: PairData, split: str, members: int) -> list[np.ndarray]:
 
 def train_experts(data: PairData, accuracy: Accuracy, config: CommitteeConfig,
                   generator: torch.Generator, progress: bool | None = None,
-                  desc: str = "experts") -> tuple[StackedMLP, FitRecord]:
+                  desc: str = "experts") -> tuple[StackedMLP | None, FitRecord]:
     """Train the K experts of every region class together (module docstring).
 
     A region without validation rows is validated on its training rows (rare in practice:
-    classes need ``min_region_rows`` training rows).
+    classes need ``min_region_rows`` training rows). A pair without any region class (little
+    data, or every point exact) has no experts: returns ``(None, FitRecord())``.
     """
     train = _expert_rows(data, "train", config.members)
     val = [v if len(v) else t for v, t in zip(_expert_rows(data, "val", config.members), train)]
     groups = len(train)
+    if groups == 0:
+        return None, FitRecord()
     model = StackedMLP(config.expert_spec(), groups, generator)
     targets = data.expert_targets()
     stats = [input_statistics(data.features[r]) + column_statistics(targets[r])
@@ -95,7 +98,7 @@ def expert_names(prefix: str, regions: list[str], members: int) -> dict[str, lis
             for i, region in enumerate(regions[1:], start=1)}
 
 
-def export_committee(prefix: str, regions: list[str], experts: StackedMLP,
+def export_committee(prefix: str, regions: list[str], experts: StackedMLP | None,
                      config: CommitteeConfig):
     """Tensors, ``mlps`` entries and the pair's ``classifier`` / ``experts`` blocks.
 

@@ -2,9 +2,13 @@
 and the figures are checked; the paper's metric of the exact solver is zero."""
 import json
 
+import numpy as np
 import pytest
+import safetensors.numpy
 
 from impactnet.cli import main
+from models.bundle_store import resolve_bundle
+from models.bundles import WEIGHTS, read_bundle, write_bundle
 from models.predictors import ExactPredictor
 from models.scenes import load_scene
 from training.evaluate import GOALS
@@ -73,8 +77,20 @@ def test_train_then_evaluate_writes_report_json_and_figures(quick_bundle, tmp_pa
         assert f"]({name})" in report
 
 
+#: Shift of every expert's output mean in the broken bundle (points NONSENSE_SHIFT x L away).
+NONSENSE_SHIFT = 3.0
+
+
 @pytest.mark.slow
 def test_check_fails_on_a_missed_goal(quick_bundle, tmp_path):
-    # The tiny bundle misses the accuracy goals, so --check turns the report into status 1.
-    assert main(["evaluate", "--bundle", str(quick_bundle), "--out", str(tmp_path),
-                 "--quick", "--rows", "200", "--check"]) == EXIT_GOAL_MISSED
+    """A bundle whose experts answer nonsense misses the committee's point goals, and --check
+    turns the report into status 1 (the quick bundle itself can meet them: the committee's
+    labeller answers most rows exactly)."""
+    path = resolve_bundle(quick_bundle)
+    weights = safetensors.numpy.load_file(str(path / WEIGHTS))
+    tensors = {name: value + np.float32(NONSENSE_SHIFT if name.endswith(".out_mean")
+                                        and "_r" in name else 0.0)
+               for name, value in weights.items()}
+    broken = write_bundle(tmp_path / "broken", read_bundle(path).manifest, tensors)
+    assert main(["evaluate", "--bundle", str(broken), "--out", str(tmp_path / "report"),
+                 "--quick", "--rows", "500", "--check"]) == EXIT_GOAL_MISSED

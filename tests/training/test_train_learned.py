@@ -81,3 +81,29 @@ def test_same_seed_same_weights():
     for key, value in first.tensors.items():
         np.testing.assert_array_equal(value, second.tensors[key], err_msg=key)
     assert first.block["auto"] == second.block["auto"]
+
+
+def test_a_pair_without_any_region_class_trains_and_answers(tmp_path):
+    """Regression: with little data every region fell under ``min_region_rows`` and the expert
+    training crashed on zero groups (a sweep trial failed). Such a pair has no experts; its
+    committee answers every clipped contact exactly."""
+    import dataclasses
+
+    from models.bundles import bundle_in_memory
+    from models.exact import box_box
+    from training.pair_data import PairDataConfig
+    from training.train import build_manifest
+
+    scene = load_scene("paper")
+    config = quick_config(0)
+    config = dataclasses.replace(config, pair=dataclasses.replace(
+        config.pair, data=PairDataConfig(rows=3000, min_region_rows=10**9)))
+    result = train_pairs(scene, config, False)[0]
+    assert result.block["classifier"]["regions"] == ["none"]
+    manifest = build_manifest(scene, [result], config, tmp_path, result.tensors, 0.0)
+    committee = load_predictor("committee", bundle_in_memory(manifest, result.tensors))
+    rows = generate_pairs(np.full(3, 2.0), np.full(3, 2.0), 300, seed=4, progress=False)
+    args = [rows[k] for k in ("size_a", "position_a", "quaternion_a", "size_b", "position_b",
+                              "quaternion_b")]
+    answer, exact = committee(*args), box_box(*args)
+    np.testing.assert_allclose(answer.point, exact.point, atol=1e-9)  # all exact
