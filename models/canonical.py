@@ -304,12 +304,15 @@ class LearningArrays(NamedTuple):
     targets: np.ndarray  # (n, 7) float32, contact-v1 (meaningless where keys == "none")
     keys: np.ndarray  # (n,) str, canonical region keys
     canonical: Canonical  # the canonical pose, to map predictions back
+    points: tuple = ()  # (n, 3) float32 each: the ``points`` asked for, mapped as the point
+    # target is (canonical A frame, / L)
 
 
-def learning_arrays(rows: Mapping) -> LearningArrays:
+def learning_arrays(rows: Mapping, points: tuple = ()) -> LearningArrays:
     """Features, targets and region keys of a labelled dataset (``training.datagen`` columns:
     the six inputs, ``point``, ``normal``, ``depth``, ``contact_type_code``, ``feature_a``,
-    ``feature_b``)."""
+    ``feature_b``), and each further world-frame point array of ``points`` (n, 3) in the
+    point target's frame and scale (e.g. the region labeller's unclipped points)."""
     pose = relative_pose(*(rows[k] for k in ("size_a", "position_a", "quaternion_a", "size_b",
                                              "position_b", "quaternion_b")))
     canonical = canonicalize(pose.rotation, pose.translation)
@@ -318,8 +321,9 @@ def learning_arrays(rows: Mapping) -> LearningArrays:
                                  (n, 3))
     quaternion_a = np.broadcast_to(np.asarray(rows["quaternion_a"], np.float64).reshape(-1, 4),
                                    (n, 4))
-    targets = contact_targets(rows["point"], rows["normal"], rows["depth"], position_a,
-                              quaternion_a, canonical, pose.half_a, pose.half_b)
+    mapped = [contact_targets(point, rows["normal"], rows["depth"], position_a, quaternion_a,
+                              canonical, pose.half_a, pose.half_b)
+              for point in (rows["point"], *points)]
     keys = canonical_labels(rows, canonical.S, canonical.T).keys
-    return LearningArrays(pose_features(canonical, pose.half_a, pose.half_b), targets, keys,
-                          canonical)
+    return LearningArrays(pose_features(canonical, pose.half_a, pose.half_b), mapped[0], keys,
+                          canonical, tuple(m[:, :3] for m in mapped[1:]))

@@ -154,8 +154,8 @@ def predict_one(predictor, values, spread: bool = True):
         return box_box_one(*values), 0.0, 0.0
     swapped = code % 2 == 1
     solved = values[3:] + values[:3] if swapped else values
-    x, to_world, flip_a, flip_b = _canonical(solved, pair.inv_scale)
     if predictor.mode == "single":
+        x, to_world, _, _ = _canonical(solved, pair.inv_scale)
         y = pair.single.forward_one(x).tolist()
         point, normal, depth = _to_world(pair, y, to_world, solved[1])
         inside = pair.depth_lo <= y[6] <= pair.depth_hi
@@ -163,8 +163,7 @@ def predict_one(predictor, values, spread: bool = True):
         spread = (0.0, 0.0)
     else:
         auto = predictor.mode == "auto"
-        row, spread = _committee_one(pair, x, to_world, flip_a, flip_b, values, swapped, auto,
-                                     spread or auto)
+        row, spread = _committee_one(pair, solved, values, swapped, auto, spread or auto)
         if row is None:  # no committee for the region, or auto: unsure
             return box_box_one(*values), 0.0, 0.0
     if swapped:
@@ -174,12 +173,12 @@ def predict_one(predictor, values, spread: bool = True):
     return _contacts(*row), spread[0], spread[1]
 
 
-def _committee_one(pair, x, to_world, flip_a, flip_b, values, swapped: bool, auto: bool,
-                   spread: bool):
-    """(row fields, spread) of the committee for one canonical input ``x`` (12,); row None
-    when the exact solver is to answer (a region without a committee; in ``auto``, an
+def _committee_one(pair, solved, values, swapped: bool, auto: bool, spread: bool):
+    """(row fields, spread) of the committee for one pair (``solved``: in the bundle's order);
+    row None when the exact solver is to answer (a region without a committee; in ``auto``, an
     unsure answer); the spread only if ``spread``. The pair is labelled in the request's
-    order (``values``) and the labels mirrored into the bundle's order if ``swapped``."""
+    order (``values``) and the labels mirrored into the bundle's order if ``swapped``; the
+    canonical features are formed only for a row the experts answer."""
     colliding, axis, depth, normal, code, fa, fb, exact, unclipped = label_one(values)
     if swapped:
         normal, fa, fb = [-normal[0], -normal[1], -normal[2]], fb, fa
@@ -194,6 +193,7 @@ def _committee_one(pair, x, to_world, flip_a, flip_b, values, swapped: bool, aut
             return None, None
         return [True, normal, depth, unclipped, code, fa, fb, axis, 1.0 if inside else 0.0,
                 "committee"], (0.0, 0.0)
+    x, to_world, flip_a, flip_b = _canonical(solved, pair.inv_scale)
     region = pair.region_dict.get((code, _FLIP[flip_a][fa], _FLIP[flip_b][fb]))
     if region is None or (auto and code in AUTO_EXACT_TYPES):
         return None, None

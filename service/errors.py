@@ -11,6 +11,7 @@ import logging
 import orjson
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
+from pydantic import ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.responses import Response
 
@@ -59,6 +60,21 @@ class InvalidBody(ServiceError):
         items = validation_items(errors)
         message = "; ".join(f"{i['field']}: {i['reason']}" for i in items[:5])
         super().__init__(422, "invalid_input", message or "invalid request", items)
+
+
+def validated_json(model, raw: bytes, content_type: str | None):
+    """``model`` (a pydantic model class) parsed and validated from the JSON body ``raw`` in one
+    pass (pydantic's strict JSON parser: no NaN / Infinity tokens, no numbers as strings;
+    invalid UTF-8 is malformed JSON). A missing Content-Type counts as JSON; anything but JSON
+    is 415, an invalid body 422 (:class:`InvalidBody`)."""
+    media = (content_type or "application/json").split(";", 1)[0].strip().lower()
+    if media != "application/json" and not media.endswith("+json"):
+        raise ServiceError(415, "unsupported_media_type", f"Content-Type {media!r}; send "
+                           "application/json")
+    try:
+        return model.model_validate_json(raw)
+    except ValidationError as exc:
+        raise InvalidBody(exc.errors(include_url=False, include_input=False)) from exc
 
 
 class PayloadTooLarge(ServiceError):

@@ -157,10 +157,10 @@ def make_pair_data(size_a, size_b, seed: np.random.SeedSequence,
     """
     rows = generate_pairs(size_a, size_b, config.rows, seed, datagen,
                           depth_fraction=depth_fraction, progress=False)
-    arrays = cn.learning_arrays(rows)
     unclipped, exact_point = unclipped_points(*(rows[k] for k in INPUT_KEYS))
     exact_point &= rows["colliding"]
-    baseline = cn.learning_arrays({**rows, "point": unclipped}).targets[:, :3]
+    arrays = cn.learning_arrays(rows, (unclipped,))
+    baseline = arrays.points[0]
     split = split_rows(config.rows, config, stream(seed, SPLIT_STREAM))
     regions, labels = region_classes(arrays.keys, split["train"], config.min_region_rows,
                                      exact_point)

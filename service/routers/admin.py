@@ -13,12 +13,11 @@ from typing import Annotated
 import orjson
 from fastapi import APIRouter, Depends, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
-from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.responses import Response
 
 from service.deps import RuntimeDep
-from service.errors import InvalidBody, ServiceError
+from service.errors import ServiceError, validated_json
 from service.routers import ERRORS
 from service.schemas import ErrorResponse, ReloadRequest, ReloadResponse
 
@@ -44,14 +43,7 @@ def parse_body(raw: bytes, content_type: str | None) -> ReloadRequest:
     """An empty body, or a JSON object ``{"bundle": "<folder>"}`` (both keys optional)."""
     if not raw.strip():
         return ReloadRequest()
-    media = (content_type or "application/json").split(";", 1)[0].strip().lower()
-    if media != "application/json" and not media.endswith("+json"):
-        raise ServiceError(415, "unsupported_media_type", f"Content-Type {media!r}; send "
-                           "application/json")
-    try:
-        return ReloadRequest.model_validate_json(raw)
-    except ValidationError as exc:
-        raise InvalidBody(exc.errors(include_url=False, include_input=False)) from exc
+    return validated_json(ReloadRequest, raw, content_type)
 
 
 @router.post(

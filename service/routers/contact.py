@@ -3,11 +3,10 @@ from __future__ import annotations
 
 import orjson
 from fastapi import APIRouter, Request
-from pydantic import ValidationError
 from starlette.responses import Response
 
 from service.deps import RuntimeDep, ServingDep
-from service.errors import InputError, InvalidBody, ServiceError
+from service.errors import InputError, validated_json
 from service.pairs import PAPER_ANGLES_AVAILABLE, contact_json, predict_checked, single_pair
 from service.routers import ERRORS
 from service.schemas import ContactRequest, ContactResponse
@@ -16,16 +15,8 @@ router = APIRouter(tags=["contact"])
 
 
 def parse_body(raw: bytes, content_type: str | None) -> ContactRequest:
-    """The request, parsed and validated in one pass by pydantic's JSON parser (strict: no
-    NaN / Infinity tokens, no numbers as strings; invalid UTF-8 is malformed JSON)."""
-    media = (content_type or "application/json").split(";", 1)[0].strip().lower()
-    if media != "application/json" and not media.endswith("+json"):
-        raise ServiceError(415, "unsupported_media_type", f"Content-Type {media!r}; send "
-                           "application/json")
-    try:
-        return ContactRequest.model_validate_json(raw)
-    except ValidationError as exc:
-        raise InvalidBody(exc.errors(include_url=False, include_input=False)) from exc
+    """The request, parsed and validated in one pass (:func:`service.errors.validated_json`)."""
+    return validated_json(ContactRequest, raw, content_type)
 
 
 _REQUEST_BODY = {"required": True, "content": {

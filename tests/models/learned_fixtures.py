@@ -52,7 +52,7 @@ def _elm(x, targets, seed, hidden=HIDDEN, outputs=cn.OUTPUTS_VERSION):
 def fit_pair(key, size_a, size_b, seed=0):
     """(manifest pair entry, {name: MLP}) of one pair."""
     rows = generate_pairs(size_a, size_b, ROWS, seed=seed, progress=False)
-    data = cn.learning_arrays(rows)
+    data = cn.learning_arrays(rows, (unclipped_points(*(rows[k] for k in INPUT_KEYS))[0],))
     x, keys = data.features.astype(np.float64), data.keys
     names, counts = np.unique(keys, return_counts=True)
     frequent = [str(k) for k, c in sorted(zip(names, counts), key=lambda kc: -kc[1])
@@ -64,9 +64,7 @@ def fit_pair(key, size_a, size_b, seed=0):
     hit = rows["colliding"]
     mlps[f"{tag}.single"] = _elm(x[hit], data.targets[hit].astype(np.float64), seed + 2)
     residual = data.targets.astype(np.float64)
-    unclipped = cn.learning_arrays({**rows, "point": unclipped_points(
-        *(rows[k] for k in INPUT_KEYS))[0]}).targets[:, :3]
-    residual[:, :3] -= unclipped
+    residual[:, :3] -= data.points[0]
     experts = {}
     for r, region in enumerate(frequent):
         mine = keys == region
