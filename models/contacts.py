@@ -30,6 +30,13 @@ CONTACT_TYPES = (
 CONTACT_TYPE_CODES = {name: code for code, name in enumerate(CONTACT_TYPES)}
 NONE, VERTEX_FACE, FACE_VERTEX, EDGE_EDGE, EDGE_FACE, FACE_EDGE, FACE_FACE = range(7)
 
+#: The rule that defines ``point`` and its version, reported by the service's ``GET /v1/models``
+#: under ``conventions`` so that a client can check what it gets (CHANGELOG.md). Version 1 was
+#: the depth-weighted mean of the manifold's vertices; version 2 is the centre of pressure of the
+#: overlap footprint (DESIGN.md, :mod:`models.manifold`).
+POINT_RULE = "centre-of-pressure"
+POINT_RULE_VERSION = 2
+
 #: Maximum number of manifold points (a quad clipped by a rectangle has at most 8 vertices).
 MAX_MANIFOLD_POINTS = 8
 

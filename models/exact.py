@@ -7,12 +7,15 @@ Stages (each pair independently, all pairs at once in vectorised float64 NumPy):
    p_A)``, ``R = R_A^T R_B``, so a pose 1e6 m from the origin gives the same answer as at it
    (:mod:`models.local_frame`).
 2. Separating-axis test over the 15 axes (:mod:`models.sat`): the axis of least overlap gives
-   the normal (oriented from A towards B) and the depth; ties are broken by the documented
-   rule there (face axes first, then lowest axis id), never by a percentage bias.
+   the normal (oriented from A towards B) and the depth, under the tie rule documented there
+   (a cross axis within an angle band of a face normal is that face's contact; an edge-edge
+   contact needs a real crossing of the edges; :func:`contact_axes`).
 3. Manifold (:mod:`models.manifold`, :mod:`models.clip`): face axes clip the incident face
    against the reference face, edge axes take the closest points of the two supporting edges.
-4. The point is the depth-weighted mean of the mid-surface manifold points; everything is
-   mapped back to the world frame (:func:`to_world`).
+4. Point: for a face axis, the centre of pressure of the footprint of every incident face
+   that looks towards the reference face (:mod:`models.pressure`); for an edge axis, the
+   midpoint of the edges' closest points. Everything is mapped back to the world frame
+   (:func:`to_world`).
 
 Vectorised layout. The pairs go through stages 1-4 in blocks of :data:`CHUNK_ROWS`, small
 enough that a block's working set stays in the CPU cache. Inside a block every quantity is a
@@ -35,6 +38,7 @@ from models import box_features as bf
 from models import contacts as ct
 from models import local_frame as lf
 from models import manifold as mf
+from models import pressure as pr
 from models import sat
 from models.contacts import Contacts
 from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
@@ -199,6 +203,37 @@ def box_box_batch(size_a, position_a, quaternion_a, size_b, position_b, quaterni
     return Contacts(**out)
 
 
+def contact_axes(pose: lf.LocalPose):
+    """Stage 2: each pair's contact axis by the tie rule of :mod:`models.sat` (rules 1-3).
+
+    Returns
+    -------
+    colliding : ndarray of bool, shape (m,)
+    axis : ndarray of int8, shape (m,)
+    depth : ndarray, shape (m,)
+        Overlap along the axis (metres).
+    normal : ndarray, shape (3, m)
+        The axis oriented from A towards B, A's frame.
+    edge : tuple
+        ``(rows, point (3, e), feature_a, feature_b)`` of the e edge-edge contacts, points in
+        A's frame (metres).
+    """
+    overlap, sines = sat.overlap_columns(pose)
+    colliding, axis, depth, face_axis, face_depth = sat.choose_axis(overlap, sines, pose.r,
+                                                                    pose.scale)
+    normal = sat.oriented_normal(pose, axis)
+    rows = np.flatnonzero(colliding & (axis >= 6))
+    point, edge_a, edge_b, inside = mf.edge_contact(pose.take(rows), np.take(normal, rows, 1),
+                                                    axis[rows])
+    if not inside.all():  # rule 3: the edges do not really cross, the face axis answers
+        back = rows[~inside]
+        axis[back], depth[back] = face_axis[back], face_depth[back]
+        normal[:, back] = sat.oriented_normal(pose.take(back), axis[back])
+        rows, point = rows[inside], point[:, inside]
+        edge_a, edge_b = edge_a[inside], edge_b[inside]
+    return colliding, axis, depth, normal, (rows, point, edge_a, edge_b)
+
+
 def solve_local(pose: lf.LocalPose) -> dict:
     """Solve m pairs in A's frame (stages 2 and 3).
 
@@ -210,42 +245,45 @@ def solve_local(pose: lf.LocalPose) -> dict:
         depth) per manifold point, points in A's frame (metres).
     """
     m = pose.data.shape[1]
-    colliding, axis, depth = sat.choose_axis(sat.overlap_columns(pose), pose.scale)
+    colliding, axis, depth, normal, edge = contact_axes(pose)
     out = {
-        "colliding": colliding, "axis": axis, "depth": depth,
-        "normal": sat.oriented_normal(pose, axis), "point": np.empty((3, m)),
-        "contact_type_code": np.zeros(m, np.int8),
+        "colliding": colliding, "axis": axis, "depth": depth, "normal": normal,
+        "point": np.empty((3, m)), "contact_type_code": np.zeros(m, np.int8),
         "feature_a": np.full(m, bf.NO_FEATURE, np.int8),
         "feature_b": np.full(m, bf.NO_FEATURE, np.int8),
         "manifold_count": np.zeros(m, np.int8),
     }
-    face = colliding & (axis < 6)
-    _fill_face_rows(out, np.flatnonzero(face), pose)
-    _fill_edge_rows(out, np.flatnonzero(colliding & ~face), pose)
+    _fill_face_rows(out, np.flatnonzero(colliding & (axis < 6)), pose)
+    _fill_edge_rows(out, *edge)
     return out
 
 
 def _fill_face_rows(out, rows, pose):
-    """Face-axis contacts: clip in the reference box's frame, map back to A's frame."""
+    """Face-axis contacts: clip and centre of pressure in the reference box's frame, mapped
+    back to A's frame."""
     axis = out["axis"][rows]
     ref_is_b = axis >= 3
     scale = pose.scale[rows]
-    points, depths, entry_rows, slots, count, inc_feature, rank, ref_face = mf.face_manifold(
-        mf.ReferenceFrame(pose, rows, ref_is_b, axis % 3), scale)
-    flip = np.flatnonzero(ref_is_b[entry_rows])  # entries in B's frame: map them to A's
+    frame = mf.ReferenceFrame(pose, rows, ref_is_b, axis % 3)
+    (points, depths, entry_rows, slots, count, inc_feature, rank, ref_face,
+     deepest) = mf.face_manifold(frame, scale)
+    centre = pr.centre_of_pressure(frame, scale, deepest)
+    point = mf.from_reference(axis % 3, *centre)
+    flip = np.flatnonzero(ref_is_b)  # the reference frame is B's: map to A's
+    if flip.size:
+        point[:, flip] = lf.b_to_a(pose, rows[flip], point[:, flip])
+    flip = np.flatnonzero(ref_is_b[entry_rows])
     if flip.size:
         points[:, flip] = lf.b_to_a(pose, rows[entry_rows[flip]], points[:, flip])
-    out["point"][:, rows] = mf.weighted_point(points, depths, entry_rows, len(rows), scale)
+    out["point"][:, rows] = point
     out["face_entries"] = (rows[entry_rows], slots, points, depths)
     out["manifold_count"][rows] = count
     (out["contact_type_code"][rows], out["feature_a"][rows],
      out["feature_b"][rows]) = mf.face_labels(ref_is_b, inc_feature, rank, ref_face)
 
 
-def _fill_edge_rows(out, rows, pose):
+def _fill_edge_rows(out, rows, point, edge_a, edge_b):
     """Edge-axis contacts: a single point, the midpoint of the two edges' closest points."""
-    point, edge_a, edge_b = mf.edge_contact(pose.take(rows), np.take(out["normal"], rows, 1),
-                                            out["axis"][rows])
     out["point"][:, rows] = point
     out["edge_rows"] = rows
     out["manifold_count"][rows] = 1

@@ -13,8 +13,10 @@ from models import box_features as bf
 from models import contacts as ct
 from models.manifold import FACE_INC_CODES as FACE_INC_CODES_ARRAY
 from models.manifold import FACE_REF_CODES as FACE_REF_CODES_ARRAY
-from models.manifold import QUAD_SIGNS, SNAP_TOL_REL, WEIGHT_FLOOR_REL
-from models.sat import CONTACT_TOL_REL, EDGE_SKEW_TOL_REL, TIE_TOL_REL
+from models.manifold import QUAD_SIGNS, SNAP_TOL_REL
+from models.pressure_one import centre_of_pressure
+from models.sat import (CONTACT_TOL_REL, DEPTH_GAIN_TOL_REL, EDGE_INSIDE_TOL_REL,
+                        EDGE_SKEW_TOL_REL, FACE_AXIS_COS_TOL, TIE_TOL_REL)
 from models.scalar_inputs import single_pair  # noqa: F401  (re-exported: the N = 1 entry)
 
 _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]
@@ -22,6 +24,7 @@ _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]
 FACE_REF_CODES = tuple(FACE_REF_CODES_ARRAY.tolist())
 FACE_INC_CODES = tuple(FACE_INC_CODES_ARRAY.tolist())
 _PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
+
 
 
 def sgn(x: float) -> float:
@@ -41,7 +44,8 @@ def _quat_matrix(q):
 
 
 def overlaps(ha, hb, rot, t, scale):
-    """Overlap along the 15 axes and the unit axes, as in :func:`models.sat.overlap_columns`."""
+    """Overlap along the 15 axes, the unit axes and the cross axes' sines to the nearest face
+    normal, as in :func:`models.sat.overlap_columns`."""
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rot
     a0, a1, a2 = ha
     b0, b1, b2 = hb
@@ -59,6 +63,7 @@ def overlaps(ha, hb, rot, t, scale):
     ]
     cols = ((r00, r10, r20), (r01, r11, r21), (r02, r12, r22))
     axes = [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), cols[0], cols[1], cols[2]]
+    sines = []
     skew_tol = EDGE_SKEW_TOL_REL * scale
     for i in range(3):
         for j in range(3):
@@ -73,6 +78,7 @@ def overlaps(ha, hb, rot, t, scale):
             if not sine * 2.0 * max(ha[i], hb[j]) > skew_tol:
                 over.append(math.inf)
                 axes.append((0.0, 0.0, 0.0))
+                sines.append(sine)
                 continue
             u0, u1, u2 = c0 / sine, c1 / sine, c2 / sine
             radius_b = (b0 * abs(u0 * r00 + u1 * r10 + u2 * r20)
@@ -81,19 +87,37 @@ def overlaps(ha, hb, rot, t, scale):
             over.append(a0 * abs(u0) + a1 * abs(u1) + a2 * abs(u2) + radius_b
                         - abs(u0 * t0 + u1 * t1 + u2 * t2))
             axes.append((u0, u1, u2))
-    return over, axes
+            sines.append(sine)
+    return over, axes, sines
 
 
-def choose_axis(over, scale):
-    """Colliding flag and axis, with the tie rule of :func:`models.sat.choose_axis`."""
+def _near_face(rot, sine, i, j, face_axis):
+    """Rule 1 of :func:`models.sat.choose_axis` for cross axis (i, j) (see
+    :func:`models.sat._near_face`)."""
+    if face_axis < 3:
+        if face_axis == i:
+            return False
+        entry = abs(rot[3 - i - face_axis][j])
+    else:
+        if face_axis - 3 == j:
+            return False
+        entry = abs(rot[i][3 - j - (face_axis - 3)])
+    return entry >= FACE_AXIS_COS_TOL * sine
+
+
+def choose_axis(over, sines, rot, scale):
+    """Colliding flag, axis and face axis (rule 3's fallback), with rules 1-2 of the tie rule
+    of :func:`models.sat.choose_axis`."""
     tie = TIE_TOL_REL * scale
     face_min = min(over[:6])
     face_axis = next(k for k in range(6) if over[k] <= face_min + tie)
-    cross_min = min(over[6:])
-    cross_axis = 6 + over[6:].index(cross_min)
-    axis = cross_axis if cross_min < face_min - tie else face_axis
+    eligible = [math.inf if _near_face(rot, sines[c], c // 3, c % 3, face_axis) else over[6 + c]
+                for c in range(9)]
+    cross_min = min(eligible)
+    cross_axis = 6 + eligible.index(cross_min)
+    axis = cross_axis if cross_min < face_min - DEPTH_GAIN_TOL_REL * scale else face_axis
     colliding = min(over) >= -CONTACT_TOL_REL * scale
-    return colliding, (axis if colliding else over.index(min(over)))
+    return colliding, (axis if colliding else over.index(min(over))), face_axis
 
 
 def _clip(quad, depth, half_u, half_w, tol):
@@ -183,7 +207,8 @@ def incident_face(h_ref, h_inc, rot_ri, t_ri, ref_axis):
 
 
 def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
-    """Manifold (points in the reference frame, depths), incident feature and rank."""
+    """Manifold (points in the reference frame, depths clamped at 0), the centre of pressure
+    (reference frame), the incident feature and its rank."""
     tol = SNAP_TOL_REL * scale
     ref_sign, vertices, signs, depth, face = incident_face(h_ref, h_inc, rot_ri, t_ri, ref_axis)
     u, w = (ref_axis + 1) % 3, (ref_axis + 2) % 3
@@ -193,16 +218,23 @@ def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
     candidates.sort(key=lambda c: -c[2])  # stable, as the vectorised argsort
     points = []
     for cu, cw, d in candidates[: ct.MAX_MANIFOLD_POINTS]:
+        d = max(d, 0.0)
         point = [0.0, 0.0, 0.0]
         point[ref_axis] = ref_sign * height - ref_sign * 0.5 * d
         point[u], point[w] = cu, cw
         points.append((point, d))
     feature, rank = incident_feature(depth, signs, face, tol)
-    return points, feature, rank, bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0)
+    corner = vertices[max(range(4), key=lambda m: (depth[m], -m))]
+    deepest = max(height - ref_sign * corner[ref_axis], 0.0)
+    fallback = (ref_sign * height - ref_sign * 0.5 * deepest,
+                min(max(corner[u], -h_ref[u]), h_ref[u]), min(max(corner[w], -h_ref[w]), h_ref[w]))
+    centre = centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback)
+    return points, centre, feature, rank, bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0)
 
 
 def edge_contact(ha, hb, rot, t, normal, axis):
-    """Mid-point of the supporting edges' closest points and the two edge ids."""
+    """Mid-point of the supporting edges' closest points, the two edge ids, and whether the
+    closest points lie inside both edges (rule 3 of :mod:`models.sat`)."""
     i, j = (axis - 6) // 3, (axis - 6) % 3
     sign_a = [sgn(v) for v in normal]
     centre_a = [0.0 if k == i else ha[k] * sign_a[k] for k in range(3)]
@@ -219,15 +251,18 @@ def edge_contact(ha, hb, rot, t, normal, axis):
     sine2 = dot(cx, cx)
     proj_a, proj_b = offset[i], dot(offset, dir_b)
     safe = sine2 if sine2 > 0 else 1.0
-    s = min(max((proj_a - cos * proj_b) / safe, -ha[i]), ha[i])
-    r = min(max((cos * proj_a - proj_b) / safe, -hb[j]), hb[j])
+    s_free, r_free = (proj_a - cos * proj_b) / safe, (cos * proj_a - proj_b) / safe
+    slack = EDGE_INSIDE_TOL_REL * (max(ha) + max(hb))
+    inside = sine2 > 0 and abs(s_free) <= ha[i] + slack and abs(r_free) <= hb[j] + slack
+    s = min(max(s_free, -ha[i]), ha[i])
+    r = min(max(r_free, -hb[j]), hb[j])
     point = [0.5 * (centre_a[k] + s * dir_a[k] + centre_b[k] + r * dir_b[k]) for k in range(3)]
 
     def edge(axis_, signs):
         j_, l_ = (1, 2) if axis_ == 0 else ((0, 2) if axis_ == 1 else (0, 1))
         return bf.EDGE_BASE + 4 * axis_ + 2 * (signs[j_] < 0) + (signs[l_] < 0)
 
-    return point, edge(i, sign_a), edge(j, sign_b)
+    return point, edge(i, sign_a), edge(j, sign_b), inside
 
 
 def _transpose(m):
@@ -269,21 +304,38 @@ def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion
     ha, hb, rot, t, rot_a = relative_frame(size_a, position_a, quaternion_a, size_b,
                                            position_b, quaternion_b)
     scale = max(ha) + max(hb)
-    over, axes = overlaps(ha, hb, rot, t, scale)
-    colliding, axis = choose_axis(over, scale)
-    u = axes[axis]
-    normal = [v * sgn(dot(u, t)) for v in u]
-    depth = max(over[axis], 0.0) if colliding else 0.0
+    colliding, axis, normal, depth, edge = contact_axis(ha, hb, rot, t, scale)
     code, feature_a, feature_b = ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE
     manifold = []
     point = None
     if colliding and axis < 6:
         manifold, point, code, feature_a, feature_b = _face_rows(ha, hb, rot, t, axis, scale)
     elif colliding:
-        point, feature_a, feature_b = edge_contact(ha, hb, rot, t, normal, axis)
+        point, feature_a, feature_b = edge
         manifold, code = [(point, depth)], ct.EDGE_EDGE
     return _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, manifold,
                    rot_a, position_a, position_b)
+
+
+def contact_axis(ha, hb, rot, t, scale):
+    """``(colliding, axis, normal, depth, edge)`` of one pair in A's frame, by the tie rule
+    (:func:`models.exact.contact_axes`); ``edge`` is ``(point, feature_a, feature_b)`` of an
+    edge-edge contact, else None."""
+    over, axes, sines = overlaps(ha, hb, rot, t, scale)
+    colliding, axis, face_axis = choose_axis(over, sines, rot, scale)
+    u = axes[axis]
+    normal = [v * sgn(dot(u, t)) for v in u]
+    edge = None
+    if colliding and axis >= 6:
+        point, feature_a, feature_b, inside = edge_contact(ha, hb, rot, t, normal, axis)
+        if inside:
+            edge = (point, feature_a, feature_b)
+        else:  # rule 3: the edges do not really cross, the face axis answers
+            axis = face_axis
+            u = axes[axis]
+            normal = [v * sgn(dot(u, t)) for v in u]
+    depth = max(over[axis], 0.0) if colliding else 0.0
+    return colliding, axis, normal, depth, edge
 
 
 def reference_view(ha, hb, rot, t, axis):
@@ -298,15 +350,11 @@ def reference_view(ha, hb, rot, t, axis):
 def _face_rows(ha, hb, rot, t, axis, scale):
     """Face-axis contact of one pair: manifold and point in A's frame, type and features."""
     ref_is_b = axis >= 3
-    points, inc, rank, ref_face = _face_contact(*reference_view(ha, hb, rot, t, axis),
-                                                axis % 3, scale)
+    points, point, inc, rank, ref_face = _face_contact(*reference_view(ha, hb, rot, t, axis),
+                                                       axis % 3, scale)
     if ref_is_b:
         points = [([t[r] + dot(rot[r], p) for r in range(3)], d) for p, d in points]
-    floor = WEIGHT_FLOOR_REL * scale
-    weights = [max(d, 0.0) + floor for _, d in points]
-    total = sum(weights)
-    point = [sum(wt * p[k] for wt, (p, _) in zip(weights, points)) / total for k in range(3)]
-    if ref_is_b:
+        point = [t[r] + dot(rot[r], point) for r in range(3)]
         return points, point, FACE_INC_CODES[rank], inc, ref_face
     return points, point, FACE_REF_CODES[rank], ref_face, inc
 

@@ -11,14 +11,19 @@ against the rectangle (the Sutherland-Hodgman result) is found in closed form
 (a) quad vertices inside the rectangle, (b) rectangle corners inside the quad, (c) crossings
 of a quad edge with the interior of a rectangle edge. Coincidences within
 :data:`SNAP_TOL_REL` are counted once, in that order of priority, so a stack of equal boxes
-gives 4 points, not 8. Points above the reference plane (negative depth) are dropped. The
-reported points lie on the mid-surface (moved by half their depth towards the incident box).
+gives 4 points, not 8. Points above the reference plane (negative depth) are dropped; the
+points where the incident face crosses the reference plane (depth 0) are not reported. Depths
+are clamped at 0. The reported points lie on the mid-surface (moved by half their depth
+towards the incident box), deepest first. The manifold is the contact *set*; the impact point
+is the centre of pressure of the whole footprint (:mod:`models.pressure`), which involves up to
+three incident faces and need not lie inside the manifold's hull.
 
 The incident feature is named by how many of the incident face's vertices penetrate: one
 vertex, two (an edge) or three or more (the face).
 
 Edge axes. The supporting edge of A along +normal and of B along -normal; the contact point is
-the midpoint of their closest points (clamped to the edges).
+the midpoint of their closest points (clamped to the edges), and the contact is an edge-edge
+one only where those points lie inside both edges (rule 3 of :mod:`models.sat`).
 
 Columns: quantities are (m,) arrays, vectors and matrices stacked as (3, m) and (9, m) (see
 :mod:`models.local_frame`). The face rows' quantities in the reference frame are read from the
@@ -35,15 +40,12 @@ from models import box_features as bf
 from models import clip
 from models import contacts as ct
 from models.local_frame import AxisChoice, matvec
-from models.sat import sign_nonnegative
+from models.sat import EDGE_INSIDE_TOL_REL, sign_nonnegative
 
 #: Relative tolerance (x pair scale, metres) under which two candidate manifold points, or a
 #: point and a clip boundary, are the same: equal boxes stacked exactly produce coincident
 #: candidates that differ only by rounding.
 SNAP_TOL_REL = 1e-12
-#: Relative floor (x pair scale, metres) added to each manifold weight, so that a manifold at
-#: zero depth averages its points evenly instead of dividing 0 by 0.
-WEIGHT_FLOOR_REL = 1e-12
 #: Quad vertices in cyclic order, as signs along the incident face's two in-plane axes.
 QUAD_SIGNS = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
 
@@ -80,6 +82,26 @@ def _frame_tables():
 
 
 _HALF_REF_ROWS, _CENTRE_ROWS, _NORMAL_ROWS, _HALF_INC_ROWS, _ROTATION_ROWS = _frame_tables()
+
+
+def _face_tables():
+    """Row ids of the incident box's three faces, for :meth:`ReferenceFrame.faces`.
+
+    ``axes`` (27, 6): entry ``9 k + 3 role + c`` = incident axis ``(k + role) % 3`` (role 0, 1,
+    2: the face normal k and its in-plane axes p, q) along reference coordinate c (axis, u,
+    w), by code ``3 flip + ref``. ``halves`` (9, 2): entry ``3 k + role`` = the incident
+    half-extent along ``(k + role) % 3``, by flip.
+    """
+    axes, halves = np.empty((27, 6), int), np.empty((9, 2), int)
+    for flip, ref, k, role, c in np.ndindex(2, 3, 3, 3, 3):
+        axes[9 * k + 3 * role + c, 3 * flip + ref] = _ROTATION_ROWS[3 * c + (k + role) % 3,
+                                                                    9 * flip + 3 * ref]
+    for flip, k, role in np.ndindex(2, 3, 3):
+        halves[3 * k + role, flip] = _HALF_INC_ROWS[(k + role) % 3, 3 * flip]
+    return axes, halves
+
+
+_FACE_AXES_ROWS, _FACE_HALF_ROWS = _face_tables()
 
 
 class ReferenceFrame:
@@ -125,6 +147,15 @@ class ReferenceFrame:
     def rotation(self, k):
         """Incident axes k, p, q (columns) along (axis, u, w) (rows), (3, 3, m)."""
         return self._gather(_ROTATION_ROWS, 3 * self.code + k).reshape(3, 3, -1)
+
+    def faces(self):
+        """The incident box's axes and half-extents face by face.
+
+        Returns ``axes`` (3 k, 3 role, 3 c, m): incident axis ``(k + role) % 3`` along the
+        reference coordinates (axis, u, w), and ``halves`` (3 k, 3 role, m) (metres).
+        """
+        axes = self._gather(_FACE_AXES_ROWS, self.code).reshape(3, 3, 3, -1)
+        return axes, self._gather(_FACE_HALF_ROWS, self.flip.astype(np.intp)).reshape(3, 3, -1)
 
     def half_inc(self, k):
         """Incident half-extents along k, p, q, (3, m) metres."""
@@ -216,7 +247,8 @@ def face_manifold(frame: ReferenceFrame, scale):
     points : ndarray, shape (3, E)
         Mid-surface manifold points in the reference frame (metres), one per entry.
     depths : ndarray, shape (E,)
-        Their penetration depths (metres).
+        Their penetration depths (metres), clamped at 0 (a candidate kept within the snap
+        tolerance above the plane is a touching point).
     rows, slots : ndarray of int, shape (E,)
         Row (0..m-1) and manifold slot (0 = deepest) of each entry, ordered by row, then slot.
     count : ndarray of int8, shape (m,)
@@ -226,6 +258,10 @@ def face_manifold(frame: ReferenceFrame, scale):
         1 vertex, 2 edge, 3 face: the kind of the incident feature.
     ref_face : ndarray of int, shape (m,)
         Face id of the reference face in the reference box.
+    deepest : ndarray, shape (3, m)
+        The incident face's deepest vertex clamped into the reference face, on the
+        mid-surface, coordinates (axis, u, w): the point of a row whose pressure region is
+        empty (:func:`models.pressure.centre_of_pressure`).
     """
     tol = SNAP_TOL_REL * scale
     ref_axis = frame.ref_axis
@@ -235,10 +271,18 @@ def face_manifold(frame: ReferenceFrame, scale):
     candidates = clip.clip_candidates(vertices[:, 1], vertices[:, 2], depth, half_u, half_w,
                                       tol)
     rows, slots, (u, w, depths), count = clip.manifold_order(candidates)
+    depths = np.maximum(depths, 0.0)
     normal = np.take(ref_sign * height, rows) - np.take(ref_sign * 0.5, rows) * depths
     points = from_reference(np.take(ref_axis, rows), normal, u, w)
     feature, rank = incident_feature(depth, k, side, tol)
-    return points, depths, rows, slots, count, feature, rank, bf.face_id(ref_axis, ref_sign < 0)
+    first = _stable_first_two(depth)[0]
+    corner = np.take_along_axis(vertices, first[None, None, :], axis=0)[0]  # (3, m)
+    deepest_depth = np.maximum(height - ref_sign * corner[0], 0.0)
+    deepest = np.array([ref_sign * height - ref_sign * 0.5 * deepest_depth,
+                        np.minimum(np.maximum(corner[1], -half_u), half_u),
+                        np.minimum(np.maximum(corner[2], -half_w), half_w)])
+    return (points, depths, rows, slots, count, feature, rank,
+            bf.face_id(ref_axis, ref_sign < 0), deepest)
 
 
 def from_reference(axis, along, u, w) -> np.ndarray:
@@ -267,21 +311,6 @@ def face_labels(ref_is_b, incident, rank, ref_face):
             np.where(ref_is_b, ref_face, incident))
 
 
-def weighted_point(points, depths, rows, m, scale) -> np.ndarray:
-    """Depth-weighted mean of the manifold points of m rows, shape (3, m).
-
-    Weights are ``max(depth, 0) + WEIGHT_FLOOR_REL * scale`` over each row's entries, summed
-    in manifold order (``np.add.at`` adds in index order), so the point moves continuously as
-    a face tilts through parallel. Rows without entries get 0.
-    """
-    weight = np.maximum(depths, 0.0) + (WEIGHT_FLOOR_REL * scale)[rows]
-    total, sums = np.zeros(m), np.zeros((3, m))
-    np.add.at(total, rows, weight)
-    for c in range(3):
-        np.add.at(sums[c], rows, weight * points[c])
-    return sums / np.where(total > 0, total, 1.0)
-
-
 def edge_contact(pose, normal, axis):
     """Closest points of the supporting edges for m edge-edge contacts, in A's frame.
 
@@ -300,6 +329,9 @@ def edge_contact(pose, normal, axis):
         Midpoint of the two closest points (the mid-surface point), A's frame (metres).
     edge_a, edge_b : ndarray of int, shape (m,)
         Feature ids of the two edges.
+    inside : ndarray of bool, shape (m,)
+        The unclamped closest points lie inside both edges (within
+        :data:`models.sat.EDGE_INSIDE_TOL_REL`): rule 3 of the tie rule (:mod:`models.sat`).
     """
     i, j = (axis - 6) // 3, (axis - 6) % 3
     on_i, along_a, along_b = i == _AXES, AxisChoice(i), AxisChoice(j)
@@ -319,10 +351,14 @@ def edge_contact(pose, normal, axis):
     proj_b = offset[0] * dir_b[0] + offset[1] * dir_b[1] + offset[2] * dir_b[2]
     safe = np.where(sine2 > 0, sine2, 1.0)
     reach_a, reach_b = along_a.pick(pose.ha), along_b.pick(pose.hb)
-    s = np.minimum(np.maximum((proj_a - cos * proj_b) / safe, -reach_a), reach_a)
-    t = np.minimum(np.maximum((cos * proj_a - proj_b) / safe, -reach_b), reach_b)
+    s_free, t_free = (proj_a - cos * proj_b) / safe, (cos * proj_a - proj_b) / safe
+    slack = EDGE_INSIDE_TOL_REL * pose.scale
+    inside = ((sine2 > 0) & (np.abs(s_free) <= reach_a + slack)
+              & (np.abs(t_free) <= reach_b + slack))
+    s = np.minimum(np.maximum(s_free, -reach_a), reach_a)
+    t = np.minimum(np.maximum(t_free, -reach_b), reach_b)
     point = 0.5 * (np.where(on_i, s, centre_a) + centre_b + t * dir_b)
-    return point, _edge_id(i, normal < 0), _edge_id(j, normal_in_b >= 0)
+    return point, _edge_id(i, normal < 0), _edge_id(j, normal_in_b >= 0), inside
 
 
 def _edge_id(axis, negative):

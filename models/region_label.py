@@ -6,14 +6,14 @@ the pair's size, and the tie rules (1e-12 of the size) pick the axis and the inc
 (docs/classifier_study.md). A classifier that is to agree with the exact solver there must
 repeat its float64 arithmetic, so it does, and costs less than a learned one would:
 
-1. the separating-axis test (:func:`models.sat.overlap_columns`, :func:`models.sat.choose_axis`)
-   gives "none", the axis, the depth and the normal, exactly;
+1. the separating-axis test and its tie rule (:func:`models.exact.contact_axes`) give "none",
+   the axis, the depth and the normal, exactly;
 2. for a face axis, the incident face's four vertex depths name the incident feature
    (:func:`models.manifold.incident_feature`); for a cross axis, the two supporting edges
    (:func:`models.manifold.edge_contact`).
 
-What is left for the learned experts is the point, whose exact computation (clipping the
-incident face against the reference face, the depth-weighted mean) is the expensive part.
+What is left for the learned experts is the point, whose exact computation (the centre of
+pressure of the clipped footprint, :mod:`models.pressure`) is the expensive part.
 :func:`label_block` is the batch path (columns, as :mod:`models.exact`), :func:`label_one` the
 N = 1 path in Python floats (as :mod:`models.exact_scalar`); both give the exact solver's
 ``colliding``, ``axis``, ``depth``, ``normal``, type and features bit for bit (tested).
@@ -30,7 +30,7 @@ from models import exact_scalar as es
 from models import local_frame as lf
 from models import manifold as mf
 from models import sat
-from models.exact import CHUNK_ROWS, prepare_inputs, unit_quaternions
+from models.exact import CHUNK_ROWS, contact_axes, prepare_inputs, unit_quaternions
 from models.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE
 
 
@@ -44,8 +44,8 @@ class Labels(NamedTuple):
     code: np.ndarray  # (m,) int8, contact type code (models.contacts)
     feature_a: np.ndarray  # (m,) int8, feature id in A (models.box_features), -1 for none
     feature_b: np.ndarray  # (m,) int8, feature id in B, -1 for none
-    exact_point: np.ndarray  # (m,) bool: ``unclipped`` is the exact point (edge-edge, and face
-    # contacts whose part below the reference face lies inside it: nothing to clip)
+    exact_point: np.ndarray  # (m,) bool: ``unclipped`` is the exact point (edge-edge, and
+    # parallel aligned face contacts with every incident vertex touching)
     unclipped: np.ndarray  # (3, m) float64, world frame, metres: the point before clipping
     # (models.manifold.face_features; an edge-edge contact's exact point; A's centre where
     # separated)
@@ -78,8 +78,7 @@ def label_block(block: np.ndarray) -> Labels:
     """
     pose, rot_a = lf.local_pose(block)
     m = block.shape[1]
-    colliding, axis, depth = sat.choose_axis(sat.overlap_columns(pose), pose.scale)
-    normal = sat.oriented_normal(pose, axis)
+    colliding, axis, depth, normal, (edge_rows, edge_point, edge_a, edge_b) = contact_axes(pose)
     code = np.zeros(m, np.int8)
     feature_a = np.full(m, bf.NO_FEATURE, np.int8)
     feature_b = np.full(m, bf.NO_FEATURE, np.int8)
@@ -98,12 +97,11 @@ def label_block(block: np.ndarray) -> Labels:
         if flip.size:
             point[:, flip] = lf.b_to_a(pose, rows[flip], point[:, flip])
         unclipped[:, rows] = point
-    rows = np.flatnonzero(colliding & ~face)
-    if rows.size:
-        unclipped[:, rows], feature_a[rows], feature_b[rows] = mf.edge_contact(
-            pose.take(rows), np.take(normal, rows, axis=1), axis[rows])
-        exact_point[rows] = True
-        code[rows] = ct.EDGE_EDGE
+    if edge_rows.size:
+        unclipped[:, edge_rows] = edge_point
+        feature_a[edge_rows], feature_b[edge_rows] = edge_a, edge_b
+        exact_point[edge_rows] = True
+        code[edge_rows] = ct.EDGE_EDGE
     world = block[lf.INPUT_SLICES[1]] + lf.matvec(rot_a, unclipped)
     return Labels(colliding, axis.astype(np.int8), depth, lf.matvec(rot_a, normal), code,
                   feature_a, feature_b, exact_point, world)
@@ -120,15 +118,15 @@ def face_features(frame: mf.ReferenceFrame, scale):
     unclipped : ndarray, shape (3, m)
         The point the touching incident vertices (depth >= -tolerance) give when each is
         clamped into the reference face's rectangle instead of clipped (reference frame,
-        metres): their depth-weighted mean (weights as
-        :func:`models.manifold.weighted_point`'s, depths of the incident face's plane at the
-        clamped points), on the mid-surface. It equals the
-        exact point where nothing is clipped (e.g. a vertex inside the face) and where the
-        incident face is aligned with the reference face (clamping a rectangle's corners into
-        an aligned rectangle gives their intersection's corners); elsewhere it is close, and
+        metres): their depth-weighted mean (depths of the incident face's plane at the
+        clamped points), on the mid-surface. It is the exact point (the centre of pressure)
+        where the incident face is parallel to and aligned with the reference face and every
+        vertex touches (clamping a rectangle's corners into an aligned rectangle gives their
+        intersection's corners, under a uniform pressure); elsewhere it is a baseline, and
         the committee's experts learn the rest.
     exact : ndarray of bool, shape (m,)
-        :func:`nothing_clipped`: the unclipped point is the exact point.
+        The unclipped point is the exact point (aligned, parallel within
+        :data:`PARALLEL_DEPTH_REL`, every vertex touching).
     """
     tol = mf.SNAP_TOL_REL * scale
     vertices, ref_sign, k, side = mf.incident_quad(frame)
@@ -138,17 +136,25 @@ def face_features(frame: mf.ReferenceFrame, scale):
     u = np.clip(vertices[:, 1], -half_u, half_u)
     w = np.clip(vertices[:, 2], -half_w, half_w)
     clamped = plane_depth(vertices[:, 1], vertices[:, 2], depth, u, w)
-    weight = np.where(depth >= -tol, np.maximum(clamped, 0.0) + mf.WEIGHT_FLOOR_REL * scale, 0.0)
+    weight = np.where(depth >= -tol, np.maximum(clamped, 0.0) + WEIGHT_FLOOR_REL * scale, 0.0)
     total = weight.sum(axis=0)
     along = ref_sign * height - ref_sign * 0.5 * (weight * clamped).sum(axis=0) / total
     unclipped = mf.from_reference(frame.ref_axis, along, (weight * u).sum(axis=0) / total,
                                (weight * w).sum(axis=0) / total)
     quad_u, quad_w = vertices[:, 1], vertices[:, 2]
-    exact = (nothing_clipped(quad_u, quad_w, depth, half_u, half_w, tol)
-             | (aligned(quad_u, quad_w) & (depth >= -tol).all(axis=0)))
+    spread = depth.max(axis=0) - depth.min(axis=0)
+    exact = (aligned(quad_u, quad_w) & (depth >= -tol).all(axis=0)
+             & (spread <= PARALLEL_DEPTH_REL * scale))
     return feature, rank, bf.face_id(frame.ref_axis, ref_sign < 0), unclipped, exact
 
 
+#: Relative floor (x pair scale, metres) added to each vertex weight of the unclipped point, so
+#: that touching vertices at zero depth average evenly instead of dividing 0 by 0.
+WEIGHT_FLOOR_REL = 1e-12
+#: Largest depth spread over the incident face (x pair scale, metres) for which it counts as
+#: parallel to the reference face: then its side faces are edge-on, the pressure is uniform and
+#: the centre of pressure of an aligned overlap is the mean of the clamped corners.
+PARALLEL_DEPTH_REL = 1e-12
 #: Largest sine (dimensionless) between an incident face's edge and the reference face's axes
 #: for which the two rectangles count as aligned: then clamping the incident corners into the
 #: reference rectangle gives the corners of their intersection (off by sine x size at most).
@@ -162,29 +168,6 @@ def aligned(quad_u, quad_w) -> np.ndarray:
     for j in (1, 3):  # the quad's two edge directions, from vertex 0
         du, dw = np.abs(quad_u[j] - quad_u[0]), np.abs(quad_w[j] - quad_w[0])
         ok &= np.minimum(du, dw) <= ALIGNED_SINE_MAX * np.maximum(du, dw)
-    return ok
-
-
-def nothing_clipped(quad_u, quad_w, depth, half_u, half_w, tol) -> np.ndarray:
-    """Whether the part of the incident face below the reference face (depth >= 0) lies
-    strictly inside the reference face's rectangle, (m,) bool: its touching vertices and the
-    points where its edges cross depth 0. Then clipping removes nothing, the manifold is the
-    touching vertices, and the unclipped point is the exact point.
-
-    ``quad_u``, ``quad_w``, ``depth``: the 4 vertices (4, m), cyclic; ``half_u``, ``half_w``
-    (m,) the rectangle, ``tol`` (m,) metres.
-    """
-    lim_u, lim_w = half_u - tol, half_w - tol
-    touching = depth >= -tol
-    inside = (np.abs(quad_u) < lim_u) & (np.abs(quad_w) < lim_w)
-    ok = (inside | ~touching).all(axis=0)
-    for i in range(4):
-        j = (i + 1) % 4
-        crosses = touching[i] != touching[j]
-        t = depth[i] / np.where(crosses, depth[i] - depth[j], 1.0)
-        cu = quad_u[i] + t * (quad_u[j] - quad_u[i])
-        cw = quad_w[i] + t * (quad_w[j] - quad_w[i])
-        ok &= ~crosses | ((np.abs(cu) < lim_u) & (np.abs(cw) < lim_w))
     return ok
 
 
@@ -242,20 +225,15 @@ def label_one(values) -> tuple:
     floats in the world frame."""
     ha, hb, rot, t, rot_a = es.relative_frame(*values)
     scale = max(ha) + max(hb)
-    over, axes = es.overlaps(ha, hb, rot, t, scale)
-    colliding, axis = es.choose_axis(over, scale)
-    u = axes[axis]
-    sign = es.sgn(es.dot(u, t))
-    normal = [v * sign for v in u]
+    colliding, axis, normal, depth, edge = es.contact_axis(ha, hb, rot, t, scale)
     world = es.apply(rot_a, normal)
     if not colliding:
         return (False, axis, 0.0, world, ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE, False,
                 list(values[1]))
-    depth = max(over[axis], 0.0)
     if axis < 6:
         code, feature_a, feature_b, point, exact = _face_labels_one(ha, hb, rot, t, axis, scale)
     else:
-        point, feature_a, feature_b = es.edge_contact(ha, hb, rot, t, normal, axis)
+        point, feature_a, feature_b = edge
         code, exact = ct.EDGE_EDGE, True
     pa = values[1]
     unclipped = [pa[r] + es.dot(rot_a[r], point) for r in range(3)]
@@ -277,7 +255,7 @@ def _face_labels_one(ha, hb, rot, t, axis, scale):
     clamped = [(min(max(u, -h_ref[u_axis]), h_ref[u_axis]),
                 min(max(w, -h_ref[w_axis]), h_ref[w_axis])) for u, w in quad]
     depths = _plane_depth_one(quad, depth, clamped)
-    weights = [max(dc, 0.0) + mf.WEIGHT_FLOOR_REL * scale if d >= -tol else 0.0
+    weights = [max(dc, 0.0) + WEIGHT_FLOOR_REL * scale if d >= -tol else 0.0
                for d, dc in zip(depth, depths)]
     total = sum(weights)
     point = [0.0, 0.0, 0.0]
@@ -285,8 +263,8 @@ def _face_labels_one(ha, hb, rot, t, axis, scale):
                        - ref_sign * 0.5 * sum(w * d for w, d in zip(weights, depths)) / total)
     point[u_axis] = sum(w * c[0] for w, c in zip(weights, clamped)) / total
     point[w_axis] = sum(w * c[1] for w, c in zip(weights, clamped)) / total
-    exact = (_nothing_clipped_one(quad, depth, h_ref[u_axis] - tol, h_ref[w_axis] - tol, tol)
-             or (all(d >= -tol for d in depth) and _aligned_one(quad)))
+    exact = (all(d >= -tol for d in depth) and _aligned_one(quad)
+             and max(depth) - min(depth) <= PARALLEL_DEPTH_REL * scale)
     if axis >= 3:
         point = [t[r] + es.dot(rot[r], point) for r in range(3)]
         return es.FACE_INC_CODES[rank], incident, ref_face, point, exact
@@ -299,25 +277,6 @@ def _aligned_one(quad) -> bool:
         du, dw = abs(quad[j][0] - quad[0][0]), abs(quad[j][1] - quad[0][1])
         if min(du, dw) > ALIGNED_SINE_MAX * max(du, dw):
             return False
-    return True
-
-
-def _nothing_clipped_one(quad, depth, lim_u, lim_w, tol) -> bool:
-    """:func:`nothing_clipped` of one contact (``quad``: 4 (u, w) pairs, limits reduced by
-    the tolerance)."""
-    def inside(u, w):
-        return abs(u) < lim_u and abs(w) < lim_w
-
-    for i in range(4):
-        j = (i + 1) % 4
-        touching_i, touching_j = depth[i] >= -tol, depth[j] >= -tol
-        if touching_i and not inside(*quad[i]):
-            return False
-        if touching_i != touching_j:
-            t = depth[i] / (depth[i] - depth[j])
-            if not inside(quad[i][0] + t * (quad[j][0] - quad[i][0]),
-                          quad[i][1] + t * (quad[j][1] - quad[i][1])):
-                return False
     return True
 
 

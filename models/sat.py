@@ -13,11 +13,39 @@ parallel edges the face axes already complete the test, and the overlap along an
 is never below the true penetration depth, so an imprecise near-parallel axis can only
 overestimate and lose; skipping it costs at most the skew times the box size.
 
-Tie rule (deterministic, documented for label stability): the face axis of least overlap
-wins over every cross axis unless a cross axis overlaps less by more than
-:data:`TIE_TOL_REL` times the pair's scale; among face axes within that tolerance of the
-minimum, the lowest axis id wins (A before B; x before y before z). There is no
-percentage bias ("fudge factor") towards face axes.
+Tie rule between face and edge axes. A cross axis that points almost along a face normal
+describes the same contact as that face (stacking with a tiny tilt: A's top edge x B's bottom
+edge is within the tilt of the vertical), and its edge-edge answer (one crossing point, up to
+half an edge from the overlap's centre) is ill-conditioned there. So:
+
+1. *Angle band.* A cross axis within :data:`FACE_AXIS_ANGLE_TOL` of the normal of the face
+   axis of least overlap never becomes the contact axis (it still counts for separation).
+2. *Depth gain.* Among the others, the shallowest cross axis wins only if it is shallower than
+   the shallowest face axis by more than :data:`DEPTH_GAIN_TOL_REL` times the pair's scale.
+3. *Real crossing.* An edge-edge contact is reported only where the closest points of the two
+   supporting edges lie inside both segments (:data:`EDGE_INSIDE_TOL_REL`); otherwise the face
+   axis answers (:func:`models.exact.contact_axes`).
+
+Among face axes within :data:`TIE_TOL_REL` of the least overlap the lowest id wins (A before B,
+x before y before z); there is no percentage bias.
+
+Worst case of the rule (backed by ``tests/models/test_exact_tie_rule.py``). The SAT's least
+overlap over the 15 axes is the true penetration depth ``c`` along the least-penetration axis
+``u``. When the rule answers with a face axis ``n`` instead:
+
+* by rule 2, ``depth - c <= DEPTH_GAIN_TOL_REL * scale`` (the normal may then differ, but the
+  two answers are equally deep to 1e-9 of the size: a tie);
+* by rule 1, ``u`` lies within ``phi = FACE_AXIS_ANGLE_TOL`` of a face normal ``n'``, and the
+  overlap along two unit axes differs by at most ``|u - n'| (rho_A + rho_B + |t|) <= 2 phi
+  (rho_A + rho_B)`` (support radii are Lipschitz in the axis; ``rho`` is a box's half
+  diagonal, and ``|t| <= rho_A + rho_B`` for touching boxes), so ``depth - c <= 2 phi (rho_A +
+  rho_B)``: 7 cm for two 2 m cubes at phi = 1e-2, but in practice ``phi`` times the overhang
+  of the tilted face (``tilt x overhang``, typically far below). The normal is within ``phi``
+  of ``u`` when ``n = n'`` (stacking: the face the cross axis leans on is the least-overlap
+  face; measured worst case in the test).
+* by rule 3 only at ties: for the exact least overlap, the closest points of the crossing
+  edges lie inside both edges (the nearest facet of the Minkowski difference contains the
+  origin's projection).
 
 Layout: the vectorised solver works on columns (:mod:`models.local_frame`); overlaps are
 (15, m). Only the chosen axis is kept as a vector: :func:`unit_axis` recomputes it from its
@@ -31,9 +59,25 @@ import numpy as np
 
 from models.local_frame import LocalPose
 
-#: Relative tolerance (x pair scale, metres) for axis ties: rounding of an overlap is a few
-#: ulps of the scale, so differences below this are noise, not geometry.
+#: Relative tolerance (x pair scale, metres) for ties among face axes: rounding of an overlap
+#: is a few ulps of the scale, so differences below this are noise, not geometry.
 TIE_TOL_REL = 1e-12
+#: Angle band (radians) of rule 1: a cross axis closer than this to a face normal is that
+#: face's contact seen through a tilt. 1e-2 rad covers the stacking tilts of a crane (a
+#: container set down a fraction of a degree out of level) while a genuine edge-on-edge
+#: contact (crossed or skewed edges, each box presenting an edge) has its cross axis tens of
+#: degrees from every face normal; a random cross axis falls in the band with probability
+#: about 3 phi^2 = 3e-4.
+FACE_AXIS_ANGLE_TOL = 1e-2
+#: cos(FACE_AXIS_ANGLE_TOL): the band is tested on the cosine of the angle to the face normal.
+FACE_AXIS_COS_TOL = float(np.cos(FACE_AXIS_ANGLE_TOL))
+#: Depth gain (x pair scale, metres) of rule 2: a cross axis must be shallower than the best
+#: face axis by more than this to win. Far above the overlaps' rounding (1e-16 of the scale)
+#: and far below any depth a simulator resolves; two features touching within it are a tie.
+DEPTH_GAIN_TOL_REL = 1e-9
+#: Slack (x pair scale, metres) of rule 3: a closest point this far past an edge's end still
+#: counts as inside (a vertex lying on an edge is both answers at once).
+EDGE_INSIDE_TOL_REL = 1e-9
 #: Relative tolerance (x pair scale) under which two boxes still count as touching: a pair
 #: placed exactly in contact computes an overlap of +-few ulps and must not flicker.
 CONTACT_TOL_REL = 1e-12
@@ -45,6 +89,22 @@ EDGE_SKEW_TOL_REL = 1e-12
 SKIPPED_AXIS_OVERLAP = np.inf
 #: Axis ids 0-2 as a column, to compare a per-row axis with every component at once.
 _AXES = np.arange(3)[:, None]
+
+
+def _near_entries() -> np.ndarray:
+    """For face axis f (column) and cross axis (i, j) (row ``3 i + j``): the entry id ``3 row +
+    col`` of R whose size is ``|cos| x |e_i x b_j|`` between the two axes, 9 where the cross
+    axis is perpendicular to the face normal (see :func:`_near_face`)."""
+    table = np.full((9, 6), 9)
+    for i, j, f in np.ndindex(3, 3, 6):
+        if f < 3 and f != i:
+            table[3 * i + j, f] = 3 * (3 - i - f) + j  # R[o, j] = b_j[o], o the third A axis
+        elif f >= 3 and f - 3 != j:
+            table[3 * i + j, f] = 3 * i + (3 - j - (f - 3))  # R[i, o], o the third B axis
+    return table
+
+
+_NEAR_ENTRY = _near_entries()
 
 
 def sign_nonnegative(x: np.ndarray) -> np.ndarray:
@@ -65,8 +125,9 @@ def _face_overlaps(pose: LocalPose, over: np.ndarray) -> None:
     over[3:6] = pose.hb + q[0:3] * a0 + q[3:6] * a1 + q[6:9] * a2 - np.abs(pose.tb)
 
 
-def _cross_overlaps(pose: LocalPose, over: np.ndarray) -> None:
-    """Overlaps along the 9 edge-edge cross products (ids 6-14), written into ``over[6:15]``.
+def _cross_overlaps(pose: LocalPose, over: np.ndarray, sines: np.ndarray) -> None:
+    """Overlaps along the 9 edge-edge cross products (ids 6-14), written into ``over[6:15]``,
+    and their lengths before normalisation ``|e_i x b_j|`` into ``sines``.
 
     ``e_i x b_j`` has components ``-b_j[q]`` at p and ``b_j[p]`` at q (p, q = i + 1, i + 2
     mod 3) and 0 at i; the zero terms of the scalar path's sums are exact and left out. The
@@ -78,7 +139,8 @@ def _cross_overlaps(pose: LocalPose, over: np.ndarray) -> None:
     for i in range(3):
         p, q = (i + 1) % 3, (i + 2) % 3
         r_p, r_q = r[3 * p:3 * p + 3], r[3 * q:3 * q + 3]  # row p, q of R: b_j[p], b_j[q]
-        sine = np.sqrt(square[3 * p:3 * p + 3] + square[3 * q:3 * q + 3])
+        sine = sines[3 * i:3 * i + 3]
+        np.sqrt(square[3 * p:3 * p + 3] + square[3 * q:3 * q + 3], out=sine)
         valid = sine * 2.0 * np.maximum(ha[i], hb) > skew_tol
         divisor = sine if valid.all() else np.where(valid, sine, 1.0)
         u_p, u_q = -(r_q / divisor), r_p / divisor  # unit axis components at p and q
@@ -92,7 +154,7 @@ def _cross_overlaps(pose: LocalPose, over: np.ndarray) -> None:
             cross[~valid] = SKIPPED_AXIS_OVERLAP
 
 
-def overlap_columns(pose: LocalPose) -> np.ndarray:
+def overlap_columns(pose: LocalPose) -> tuple[np.ndarray, np.ndarray]:
     """Overlap of the two boxes along each of the 15 axes, for m pairs in columns.
 
     Parameters
@@ -102,14 +164,18 @@ def overlap_columns(pose: LocalPose) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (15, m)
+    overlap : ndarray, shape (15, m)
         Overlap (metres) along each axis; negative where the axis separates, +inf where
         a degenerate cross axis was skipped.
+    sines : ndarray, shape (9, m)
+        ``|e_i x b_j|`` of each cross axis (ids 6-14) before normalisation, for
+        :func:`choose_axis`'s angle band.
     """
     over = np.empty((15, pose.data.shape[1]))
+    sines = np.empty((9, pose.data.shape[1]))
     _face_overlaps(pose, over)
-    _cross_overlaps(pose, over)
-    return over
+    _cross_overlaps(pose, over, sines)
+    return over, sines
 
 
 def _first_true(flags: np.ndarray) -> np.ndarray:
@@ -126,13 +192,42 @@ def _at(values: np.ndarray, index: np.ndarray) -> np.ndarray:
     return np.take(values.reshape(-1), index * m + np.arange(m))
 
 
-def choose_axis(overlap: np.ndarray, scale: np.ndarray):
-    """Pick each pair's contact axis by least overlap and the documented tie rule.
+def _near_face(r: np.ndarray, sines: np.ndarray, face_axis: np.ndarray) -> np.ndarray:
+    """Rule 1: which cross axes lie within the angle band of the face axis ``face_axis``.
+
+    The unit cross axis ``u = e_i x b_j / s`` (``s = |e_i x b_j|``, ``sines``) has cosine
+    ``|R[o, j]| / s`` with A's normal ``e_a`` (a != i; o the third axis of A) and ``|R[i, o]| / s``
+    with B's normal ``b_b`` (b != j; o the third axis of B), and is perpendicular to ``e_i`` and
+    ``b_j``; it is near when that cosine is at least ``cos(FACE_AXIS_ANGLE_TOL)``.
+
+    Parameters
+    ----------
+    r : ndarray, shape (9, m)
+        R row-major (see :class:`models.local_frame.LocalPose`).
+    sines : ndarray, shape (9, m)
+    face_axis : ndarray of int, shape (m,)
+        The face axis (0-5) of each pair.
+
+    Returns
+    -------
+    ndarray of bool, shape (9, m)
+    """
+    entry = np.take(_NEAR_ENTRY, face_axis, axis=1)  # (9, m): R entry id, 9 for "never near"
+    padded = np.concatenate((np.abs(r), np.zeros((1, r.shape[1]))))
+    cosine_times_sine = np.take_along_axis(padded, entry, axis=0)
+    return cosine_times_sine >= FACE_AXIS_COS_TOL * sines
+
+
+def choose_axis(overlap: np.ndarray, sines: np.ndarray, r: np.ndarray, scale: np.ndarray):
+    """Pick each pair's contact axis by least overlap and rules 1-2 of the tie rule.
 
     Parameters
     ----------
     overlap : ndarray, shape (15, m)
+    sines : ndarray, shape (9, m)
         From :func:`overlap_columns`.
+    r : ndarray, shape (9, m)
+        B's rotation in A's frame, row-major.
     scale : ndarray, shape (m,)
         Pair scale (metres).
 
@@ -144,22 +239,32 @@ def choose_axis(overlap: np.ndarray, scale: np.ndarray):
         Contact axis for colliding pairs; the axis of largest separation otherwise.
     depth : ndarray, shape (m,)
         Overlap along the contact axis, clamped at 0 (metres); 0 for separated pairs.
+    face_axis : ndarray of int8, shape (m,)
+        The face axis that rule 3 falls back to where a cross axis won.
+    face_depth : ndarray, shape (m,)
+        Its overlap, clamped at 0 (metres).
     """
     tie = TIE_TOL_REL * scale
     face, cross = overlap[:6], overlap[6:]
     face_min = np.minimum.reduce(face)
     face_axis = _first_true(face <= face_min + tie)
-    cross_min = np.minimum.reduce(cross)
-    cross_axis = _first_true(cross == cross_min) + np.int8(6)
-    use_cross = cross_min < face_min - tie
+    eligible = np.where(_near_face(r, sines, face_axis.astype(np.intp)), SKIPPED_AXIS_OVERLAP,
+                        cross)
+    cross_min = np.minimum.reduce(eligible)
+    cross_axis = _first_true(eligible == cross_min) + np.int8(6)
+    use_cross = cross_min < face_min - DEPTH_GAIN_TOL_REL * scale
     axis = np.where(use_cross, cross_axis, face_axis)
-    chosen = np.where(use_cross, cross_min, _at(face, face_axis.astype(np.intp)))
-    colliding = np.minimum(face_min, cross_min) >= -CONTACT_TOL_REL * scale
+    face_depth = _at(face, face_axis.astype(np.intp))
+    chosen = np.where(use_cross, cross_min, face_depth)
+    any_cross = np.minimum.reduce(cross)
+    colliding = np.minimum(face_min, any_cross) >= -CONTACT_TOL_REL * scale
     if not colliding.all():
-        separating = np.where(face_min <= cross_min, _first_true(face == face_min), cross_axis)
+        widest = _first_true(cross == any_cross) + np.int8(6)
+        separating = np.where(face_min <= any_cross, _first_true(face == face_min), widest)
         axis = np.where(colliding, axis, separating)
     depth = np.where(colliding, np.maximum(chosen, 0.0), 0.0)
-    return colliding, axis, depth
+    face_depth = np.where(colliding, np.maximum(face_depth, 0.0), 0.0)
+    return colliding, axis, depth, face_axis, face_depth
 
 
 def unit_axis(pose: LocalPose, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

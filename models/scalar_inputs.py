@@ -24,8 +24,13 @@ def _flat_floats(value):
     """A vector as a list of floats: lists and 1-D arrays directly, anything else via NumPy."""
     if type(value) is list and all(type(v) is float for v in value):
         return value
-    if type(value) is np.ndarray and value.ndim == 1 and value.dtype == np.float64:
-        return value.tolist()
+    if type(value) in (list, tuple) and len(value) > 4:  # a batch
+        return None
+    if type(value) is np.ndarray:
+        if value.size > 4:  # a batch: never converted element by element
+            return None
+        if value.ndim == 1 and value.dtype == np.float64:
+            return value.tolist()
     try:
         return np.asarray(value, dtype=np.float64).reshape(-1).tolist()
     except (TypeError, ValueError):

@@ -7,6 +7,8 @@
 The first form measures the exact solver, python-fcl's Box-Box, the paper's polygon method at
 each grid size and the learned predictors (``models.load_predictor``; "not available: <reason>"
 while there is no bundle) on the scene's first-contact poses and the paper's Figure 2 case,
+with a "vs MuJoCo" column (every method against MuJoCo's box-box and a grid centre of pressure,
+:mod:`training.bench.vs_mujoco`; noted as not available without the dev extra's mujoco),
 and writes ``results.md``, ``results.json``, ``pareto.png``, ``polygon_grid.png`` and
 ``figure2_tilt.png`` into ``--out`` (the Markdown is also printed). See
 :mod:`training.bench`. The second form is the exact solver's own benchmark

@@ -15,9 +15,9 @@ Stages of :func:`make_pair_data`:
 4. Region classes (:func:`region_classes`): ``"none"`` first, then every face-axis region with
    at least ``min_region_rows`` training rows, most frequent first. Rarer regions get no
    class and no committee: their rows are labelled -1, and at inference the exact solver
-   answers them (see :mod:`training.train_committee`). Edge-edge rows and face rows with
-   nothing to clip (labelled -2) need no committee: the region labeller gives their point
-   exactly (:func:`models.region_label.nothing_clipped`).
+   answers them (see :mod:`training.train_committee`). Edge-edge rows and parallel aligned
+   face rows (labelled -2) need no committee: the region labeller gives their point exactly
+   (:func:`models.region_label.face_features`).
 """
 from __future__ import annotations
 

@@ -7,6 +7,10 @@ pose_sets   the scene's first-contact poses and the paper's Figure 2 hard case
 polygon     the paper's polygon method (grid-triangulated boxes, FCL BVH meshes)
 methods     every method behind one interface: exact, FCL Box-Box, polygon n, learned
 errors      errors against the exact solver on the same poses
+vs_mujoco   errors against MuJoCo's box-box and the grid centre of pressure ("vs MuJoCo")
+mujoco_reference, cop_reference, cop_frame
+            the two independent references (MuJoCo wrapper; centre of pressure on a grid)
+contact_sets  stacking and edge-on-edge pose recipes; stacking_table  the per-tilt table
 measure     the measurement plan (BenchConfig) and one method on one pose set
 runner      the run: pose sets, every method on each, the paper check, optional HTTP
 paper       the paper's Section II grid estimate, checked against the polygon sweep

@@ -9,6 +9,8 @@ Per method and pose set (:func:`measure_method`):
   full plan); python-fcl loops take an evenly spread subsample whose size is reported as the
   N measured. Nothing is extrapolated.
 * Errors against the exact solver's answers for the same poses (:mod:`training.bench.errors`).
+* Errors against independent references, MuJoCo's box-box and the grid centre of pressure
+  (:mod:`training.bench.vs_mujoco`), on at most ``mujoco_poses`` of the scored poses.
 
 Ratios to the exact solver use the exact solver's figures from the same run and pose set:
 ``time / exact time`` at N = 1, and per pair at the throughput N (exact at its own N).
@@ -49,13 +51,15 @@ class BenchConfig:
     http: bool = False  # also measure through the HTTP service
     http_requests: int = 2_000  # /v1/contact requests per mode (after warm-up)
     http_batch_repeats: int = 5  # timed /v1/contact/batch calls per mode
+    mujoco_poses: int = 5_000  # scored poses compared with MuJoCo per method (0: no column)
 
 
 #: The smoke-test plan (`impactnet bench --quick`): well under a minute on two cores.
 QUICK = BenchConfig(scene_poses=10_000, figure2_tilts=20, figure2_per_tilt=100,
                     single_calls=200, loop_single_calls=40, single_warmup=20,
                     batch_repeats=3, loop_repeats=1, fcl_poses=2_000, polygon_poses=100,
-                    polygon_figure2_poses=40, http_requests=200, http_batch_repeats=2)
+                    polygon_figure2_poses=40, http_requests=200, http_batch_repeats=2,
+                    mujoco_poses=500)
 
 
 @dataclass
@@ -77,6 +81,7 @@ class Row:
     n1_vs_exact: float | None = None  # us_n1 / exact's us_n1
     per_pair_vs_exact: float | None = None  # us_per_pair / exact's us_per_pair
     info: dict = field(default_factory=dict)  # method info and diagnostics
+    vs_mujoco: dict | None = None  # training.bench.vs_mujoco.summarise(); None: not measured
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -113,11 +118,12 @@ def _time_n1(method: Method, poses, calls: int, warmup: int) -> tuple[float, int
 
 
 def measure_method(method: Method, poses, reference: Answer, config: BenchConfig,
-                   log=lambda message: None, tolerance=None) -> Row:
+                   log=lambda message: None, tolerance=None, mujoco=None) -> Row:
     """Time and score one method on one pose set (see the module docstring).
 
     ``tolerance``: the scene's accuracy as (normal degrees, point per cent of the shortest
-    edge), for the "within tolerance" share; None leaves it out.
+    edge), for the "within tolerance" share; None leaves it out. ``mujoco``: the pose set's
+    :class:`training.bench.vs_mujoco.MujocoColumn`, or None for no "vs MuJoCo" column.
     """
     row = Row(method.name, method.family, poses.name, "ok", set_size=len(poses),
               info=dict(method.info))
@@ -147,6 +153,8 @@ def measure_method(method: Method, poses, reference: Answer, config: BenchConfig
     if poses.tilt is not None:
         row.info["by_tilt"] = er.by_group(per_pose, poses.tilt[rows])
     _diagnostics(row, method, answer, expected, per_pose, poses, rows)
+    if mujoco is not None:  # untimed: MuJoCo and the grid reference, cached per set of rows
+        row.vs_mujoco = mujoco.score(answer, rows)
     log(f"  {method.name:<16} {poses.name:<8} N=1 {row.us_n1:9.1f} us | N={row.batch_n:>7,} "
         f"{row.pairs_per_s:>11,.0f} pairs/s | {time.perf_counter() - t0:5.1f} s")
     return row

@@ -30,11 +30,11 @@ def method_table(rows: list[dict], pose_set: str) -> str:
     """One line per method on ``pose_set``."""
     lines = ["| method | N = 1: µs/call | vs exact | N measured | pairs/s | µs/pair | vs exact "
              "| normal error ° median / p99 | point error % median / p99 | type accuracy "
-             "| within tolerance | missed |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| within tolerance | vs MuJoCo: within 1° & 2 % | missed |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in (r for r in rows if r["pose_set"] == pose_set):
         if r["status"] != "ok":
-            lines.append(f"| {r['method']} | {r['status']} |" + f" {DASH} |" * 10)
+            lines.append(f"| {r['method']} | {r['status']} |" + f" {DASH} |" * 11)
             continue
         e = r["errors"]
         n = f"{r['batch_n']:,}" + (" (subsample)" if r["batch_n"] < r["set_size"] else "")
@@ -46,8 +46,45 @@ def method_table(rows: list[dict], pose_set: str) -> str:
             f"{_ratio(r['per_pair_vs_exact'])} | "
             f"{_pair(e['normal_deg_median'], e['normal_deg_p99'])} | "
             f"{_pair(e['point_pct_median'], e['point_pct_p99'])} | {accuracy} | {within} | "
-            f"{e['missed']:,} of {e['contacts']:,} |")
+            f"{_mujoco_within(r.get('vs_mujoco'))} | {e['missed']:,} of {e['contacts']:,} |")
     return "\n".join(lines + _answered_by(rows, pose_set))
+
+
+def _mujoco_within(summary: dict | None) -> str:
+    if not summary or summary.get("within") is None:
+        return DASH
+    return f"{100 * summary['within']:.2f} %"
+
+
+def mujoco_table(rows: list[dict], pose_set: str) -> str:
+    """Each method against MuJoCo and the grid centre of pressure (training.bench.vs_mujoco)."""
+    lines = ["| method | poses compared | within 1° & 2 % | normal error ° median / p99 "
+             "| point error % median / p99 | MuJoCo edge-edge | missed |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        m = r.get("vs_mujoco")
+        if r["pose_set"] != pose_set or r["status"] != "ok" or not m:
+            continue
+        lines.append(f"| {r['method']} | {m['rows']:,} | {_mujoco_within(m)} | "
+                     f"{_pair(m['normal_deg_median'], m['normal_deg_p99'])} | "
+                     f"{_pair(m['point_pct_median'], m['point_pct_p99'])} | "
+                     f"{m['edge_rows']:,} | {m['missed']:,} of {m['mujoco_contacts']:,} |")
+    return "\n".join(lines)
+
+
+def mujoco_section(results: dict, pose_set: str) -> list[str]:
+    """The "vs MuJoCo" paragraph and table of a pose set, or the note why it is missing."""
+    info = results.get("mujoco")
+    if not info:
+        return []
+    if not info["available"]:
+        return [f"vs MuJoCo: not available: {info['note']}.", ""]
+    return [f"Against independent references (MuJoCo {info.get('version')} box-box for the "
+            f"normal; the grid centre of pressure, or MuJoCo's crossing point for its "
+            f"edge-edge contacts, for the point; up to {info['rows']:,} of each method's "
+            f"poses): share within {info['normal_deg']:g}° and {info['point_pct']:g} % of the "
+            "shortest edge, errors against them.", "", mujoco_table(results["rows"], pose_set),
+            ""]
 
 
 def _answered_by(rows: list[dict], pose_set: str) -> list[str]:
@@ -134,6 +171,7 @@ def markdown(results: dict) -> str:
     for name, pose_set in results["pose_sets"].items():
         out += [f"## {SET_TITLES.get(name, name)} ({pose_set['poses']:,} poses)", "",
                 f"{pose_set['description']}.", "", method_table(results["rows"], name), ""]
+        out += mujoco_section(results, name)
     paper = results["paper_estimate"]
     out += ["## Polygon method against n, and the paper's grid estimate", "",
             f"Reading of Section II: {paper['reading']}.", "", polygon_table(paper), "",

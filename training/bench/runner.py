@@ -14,7 +14,7 @@ import sys
 import time
 from dataclasses import asdict
 
-from training.bench import paper
+from training.bench import paper, vs_mujoco
 from training.bench.measure import BenchConfig, add_ratios, measure_method
 from training.bench.methods import default_methods
 from training.bench.polygon import RULE, VARIANTS
@@ -36,6 +36,20 @@ def build_pose_sets(config: BenchConfig, scene) -> list:
                           config.seed + FIGURE2_SEED_OFFSET)]
 
 
+def mujoco_info(config: BenchConfig) -> dict:
+    """Whether the "vs MuJoCo" column is measured, why not, and its targets."""
+    note = vs_mujoco.mujoco_missing() if config.mujoco_poses > 0 else \
+        "disabled (mujoco_poses = 0)"
+    info = {"available": note is None, "note": note, "rows": config.mujoco_poses,
+            "normal_deg": vs_mujoco.NORMAL_TOL_DEG,
+            "point_pct": 100.0 * vs_mujoco.POINT_TOL_FRACTION}
+    if note is None:
+        import mujoco
+
+        info["version"] = mujoco.__version__
+    return info
+
+
 def run_bench(config: BenchConfig, methods=None, mode: str = "custom",
               log=stderr_log) -> dict:
     """Measure every method on every pose set; returns the results as plain JSON types."""
@@ -52,11 +66,15 @@ def run_bench(config: BenchConfig, methods=None, mode: str = "custom",
         methods = default_methods(config.grid_sizes, config.learned, config.bundle)
     exact = next(m for m in methods if m.family == "exact")
     tolerance = (scene.accuracy.normal_deg, 100.0 * scene.accuracy.point_fraction)
+    mujoco = mujoco_info(config)
     rows = []
     for poses in sets:
         reference = exact.batch(poses.args(), False)
+        column = vs_mujoco.MujocoColumn(poses, config.mujoco_poses) if mujoco["available"] \
+            else None
         for method in methods:
-            rows.append(measure_method(method, poses, reference, config, log, tolerance))
+            rows.append(measure_method(method, poses, reference, config, log, tolerance,
+                                       column))
     add_ratios(rows)
     results = {
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
@@ -71,6 +89,7 @@ def run_bench(config: BenchConfig, methods=None, mode: str = "custom",
         "polygon_variants": VARIANTS,
         "rows": [r.to_dict() for r in rows],
         "paper_estimate": paper.check(rows),
+        "mujoco": mujoco,
     }
     if config.http:
         from training.bench.http import measure_http
