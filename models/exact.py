@@ -267,8 +267,9 @@ def _fill_face_rows(out, rows, pose):
     frame = mf.ReferenceFrame(pose, rows, ref_is_b, axis % 3)
     (points, depths, entry_rows, slots, count, inc_feature, rank, ref_face,
      deepest) = mf.face_manifold(frame, scale)
-    centre = pr.centre_of_pressure(frame, scale, deepest)
+    centre, region_depth = pr.centre_of_pressure(frame, scale, deepest)
     point = mf.from_reference(axis % 3, *centre)
+    out["depth"][rows] = np.where(region_depth >= 0.0, region_depth, out["depth"][rows])
     flip = np.flatnonzero(ref_is_b)  # the reference frame is B's: map to A's
     if flip.size:
         point[:, flip] = lf.b_to_a(pose, rows[flip], point[:, flip])

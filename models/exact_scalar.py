@@ -111,11 +111,12 @@ def choose_axis(over, sines, rot, scale):
     tie = TIE_TOL_REL * scale
     face_min = min(over[:6])
     face_axis = next(k for k in range(6) if over[k] <= face_min + tie)
-    eligible = [math.inf if _near_face(rot, sines[c], c // 3, c % 3, face_axis) else over[6 + c]
-                for c in range(9)]
+    near = [_near_face(rot, sines[c], c // 3, c % 3, face_axis) for c in range(9)]
+    eligible = [math.inf if n else over[6 + c] for c, n in enumerate(near)]
     cross_min = min(eligible)
     cross_axis = 6 + eligible.index(cross_min)
-    axis = cross_axis if cross_min < face_min - DEPTH_GAIN_TOL_REL * scale else face_axis
+    face_bar = min(face_min, min([over[6 + c] if n else math.inf for c, n in enumerate(near)]))
+    axis = cross_axis if cross_min < face_bar - DEPTH_GAIN_TOL_REL * scale else face_axis
     colliding = min(over) >= -CONTACT_TOL_REL * scale
     return colliding, (axis if colliding else over.index(min(over))), face_axis
 
@@ -228,8 +229,8 @@ def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
     deepest = max(height - ref_sign * corner[ref_axis], 0.0)
     fallback = (ref_sign * height - ref_sign * 0.5 * deepest,
                 min(max(corner[u], -h_ref[u]), h_ref[u]), min(max(corner[w], -h_ref[w]), h_ref[w]))
-    centre = centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback)
-    return points, centre, feature, rank, bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0)
+    centre, depth = centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback)
+    return points, centre, depth, feature, rank, bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0)
 
 
 def edge_contact(ha, hb, rot, t, normal, axis):
@@ -309,7 +310,10 @@ def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion
     manifold = []
     point = None
     if colliding and axis < 6:
-        manifold, point, code, feature_a, feature_b = _face_rows(ha, hb, rot, t, axis, scale)
+        manifold, point, region_depth, code, feature_a, feature_b = _face_rows(ha, hb, rot, t,
+                                                                              axis, scale)
+        if region_depth is not None:
+            depth = region_depth
     elif colliding:
         point, feature_a, feature_b = edge
         manifold, code = [(point, depth)], ct.EDGE_EDGE
@@ -348,15 +352,16 @@ def reference_view(ha, hb, rot, t, axis):
 
 
 def _face_rows(ha, hb, rot, t, axis, scale):
-    """Face-axis contact of one pair: manifold and point in A's frame, type and features."""
+    """Face-axis contact of one pair: manifold, point in A's frame, the region's depth (None if
+    empty), type and features."""
     ref_is_b = axis >= 3
-    points, point, inc, rank, ref_face = _face_contact(*reference_view(ha, hb, rot, t, axis),
-                                                       axis % 3, scale)
+    points, point, depth, inc, rank, ref_face = _face_contact(
+        *reference_view(ha, hb, rot, t, axis), axis % 3, scale)
     if ref_is_b:
         points = [([t[r] + dot(rot[r], p) for r in range(3)], d) for p, d in points]
         point = [t[r] + dot(rot[r], point) for r in range(3)]
-        return points, point, FACE_INC_CODES[rank], inc, ref_face
-    return points, point, FACE_REF_CODES[rank], ref_face, inc
+        return points, point, depth, FACE_INC_CODES[rank], inc, ref_face
+    return points, point, depth, FACE_REF_CODES[rank], ref_face, inc
 
 
 def _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, manifold,

@@ -334,7 +334,7 @@ def fan_moments(poly):
 
 
 def centre_of_pressure(frame, scale, fallback):
-    """The impact point of m face contacts, in the reference frame.
+    """The impact point and the depth of m face contacts, in the reference frame.
 
     Parameters
     ----------
@@ -348,16 +348,22 @@ def centre_of_pressure(frame, scale, fallback):
 
     Returns
     -------
-    ndarray, shape (3, m)
+    point : ndarray, shape (3, m)
         The point in the reference frame, coordinates in the cyclic order (axis, u, w).
+    depth : ndarray, shape (m,)
+        The deepest point of the region below the reference plane (metres, >= 0): the
+        contact's penetration depth along the reference normal; -inf where the region is
+        empty.
     """
     tau = PRESSURE_FLOOR_REL * scale
     poly, rows, faces, orientation, height, half_u, half_w, ref_sign = front_faces(frame, tau)
     m = len(scale)
     per_face = np.zeros((4, 3, m))
+    per_face_deepest = np.full((3, m), -np.inf)
     for part, keep in clip_polygons(poly, half_u[rows], half_w[rows]):
-        per_face.reshape(4, -1)[:, faces[keep] * m + rows[keep]] = (fan_moments(part)
-                                                                     * orientation[keep])
+        at = faces[keep] * m + rows[keep]
+        per_face.reshape(4, -1)[:, at] = fan_moments(part) * orientation[keep]
+        per_face_deepest.reshape(-1)[at] = part[P].max(axis=0)
     total = per_face[:, 0] + per_face[:, 1] + per_face[:, 2]
     weight = total[0]
     found = weight > 0.0
@@ -365,4 +371,5 @@ def centre_of_pressure(frame, scale, fallback):
     offset = np.maximum(0.5 * (total[3] / safe) - 0.5 * tau, 0.0)
     point = np.array([ref_sign * height - ref_sign * offset, total[1] / safe,
                       total[2] / safe])
-    return np.where(found, point, fallback)
+    deepest = np.maximum(np.maximum.reduce(per_face_deepest) - tau, 0.0)
+    return np.where(found, point, fallback), np.where(found, deepest, -np.inf)

@@ -6,6 +6,8 @@ explains the rule; polygons are lists of ``[u, w, p]`` points without the batch 
 """
 from __future__ import annotations
 
+import math
+
 from models.pressure import PRESSURE_FLOOR_REL
 
 
@@ -143,7 +145,8 @@ def fan_moments(poly):
 
 
 def centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback):
-    """The impact point of one face contact in the reference frame, as ``[x, y, z]``.
+    """The impact point of one face contact in the reference frame, as ``[x, y, z]``, and the
+    deepest point of its region below the reference plane (metres; None if the region is empty).
 
     ``fallback`` ``(along, u, w)``: the point where the region is empty (see the batch).
     """
@@ -151,17 +154,19 @@ def centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback):
     axis, u, w = ref_axis, (ref_axis + 1) % 3, (ref_axis + 2) % 3
     faces, ref_sign = front_faces(h_ref, h_inc, rot_ri, t_ri, ref_axis, tau)
     per_face = [(0.0, 0.0, 0.0, 0.0)] * 3
+    deepest = -math.inf
     for orientation, k, quad in faces:
         poly = clip_face(quad, h_ref[u], h_ref[w])
         if poly:
             per_face[k] = tuple(orientation * v for v in fan_moments(poly))
+            deepest = max(deepest, max(v[2] for v in poly))
     total = [per_face[0][i] + per_face[1][i] + per_face[2][i] for i in range(4)]
     weight = total[0]
     point = [0.0, 0.0, 0.0]
-    if weight > 0.0:
-        offset = max(0.5 * (total[3] / weight) - 0.5 * tau, 0.0)
-        point[axis] = ref_sign * h_ref[axis] - ref_sign * offset
-        point[u], point[w] = total[1] / weight, total[2] / weight
-    else:
+    if not weight > 0.0:
         point[axis], point[u], point[w] = fallback
-    return point
+        return point, None
+    offset = max(0.5 * (total[3] / weight) - 0.5 * tau, 0.0)
+    point[axis] = ref_sign * h_ref[axis] - ref_sign * offset
+    point[u], point[w] = total[1] / weight, total[2] / weight
+    return point, max(deepest - tau, 0.0)
