@@ -14,7 +14,9 @@ Stages (each pair independently, all pairs at once in vectorised float64 NumPy):
    against the reference face, edge axes take the closest points of the two supporting edges.
 4. Point: for a face axis, the centre of pressure of the footprint of every incident face
    that looks towards the reference face (:mod:`models.pressure`); for an edge axis, the
-   midpoint of the edges' closest points. Everything is mapped back to the world frame
+   midpoint of the edges' closest points. A face contact's depth is the SAT overlap along its
+   normal, or the deepest point of the footprint where that is shallower (the incident box's
+   deepest vertex hangs beyond the reference face, e.g. a tilted container overhanging). Everything is mapped back to the world frame
    (:func:`to_world`).
 
 Vectorised layout. The pairs go through stages 1-4 in blocks of :data:`CHUNK_ROWS`, small
@@ -269,7 +271,9 @@ def _fill_face_rows(out, rows, pose):
      deepest) = mf.face_manifold(frame, scale)
     centre, region_depth = pr.centre_of_pressure(frame, scale, deepest)
     point = mf.from_reference(axis % 3, *centre)
-    out["depth"][rows] = np.where(region_depth >= 0.0, region_depth, out["depth"][rows])
+    sat_depth = out["depth"][rows]
+    shallower = region_depth < sat_depth - pr.REGION_DEPTH_TOL_REL * scale
+    out["depth"][rows] = np.where((region_depth >= 0.0) & shallower, region_depth, sat_depth)
     flip = np.flatnonzero(ref_is_b)  # the reference frame is B's: map to A's
     if flip.size:
         point[:, flip] = lf.b_to_a(pose, rows[flip], point[:, flip])

@@ -14,6 +14,7 @@ from models import contacts as ct
 from models.manifold import FACE_INC_CODES as FACE_INC_CODES_ARRAY
 from models.manifold import FACE_REF_CODES as FACE_REF_CODES_ARRAY
 from models.manifold import QUAD_SIGNS, SNAP_TOL_REL
+from models.pressure import REGION_DEPTH_TOL_REL
 from models.pressure_one import centre_of_pressure
 from models.sat import (CONTACT_TOL_REL, DEPTH_GAIN_TOL_REL, EDGE_INSIDE_TOL_REL,
                         EDGE_SKEW_TOL_REL, FACE_AXIS_COS_TOL, TIE_TOL_REL)
@@ -312,7 +313,7 @@ def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion
     if colliding and axis < 6:
         manifold, point, region_depth, code, feature_a, feature_b = _face_rows(ha, hb, rot, t,
                                                                               axis, scale)
-        if region_depth is not None:
+        if region_depth is not None and region_depth < depth - REGION_DEPTH_TOL_REL * scale:
             depth = region_depth
     elif colliding:
         point, feature_a, feature_b = edge

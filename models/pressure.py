@@ -5,8 +5,8 @@ Stage 3b of the exact solver (see :mod:`models.exact`); the rule is DESIGN.md's.
 The rule. The separating-axis test picks a reference face (outward normal ``n``, on the
 reference box); the other box is the incident box. The contact region is the footprint, on the
 reference face, of the incident box's part beyond the reference plane: every face of the
-incident box that looks towards the reference face (``m . n < 0``; one per incident axis, so up
-to three) is projected onto the reference plane and clipped to the reference face's four side
+incident box that looks towards the reference face (``m . n <= 0``; one per incident axis, so
+three) is projected onto the reference plane and clipped to the reference face's four side
 planes and to ``depth >= 0``. The depth ``d`` is measured along ``n`` from the reference plane;
 it is linear over each projected face. Under a pressure proportional to the depth, the point
 is the pressure-weighted mean of the mid-surface points ``y - n d(y) / 2``:
@@ -28,26 +28,40 @@ vertex a region of size ``tau`` around it. The floor moves the point by ``O(tau 
 the region's size. A region that is still empty (a pair touching within the contact tolerance
 at the reference face's rim) takes the incident face's deepest vertex clamped into the face.
 
+Geometry. The three front faces meet at the incident box's deepest vertex, the *apex* ``V``
+(pressure ``p0``, the largest). Each incident axis j gives an edge ``d_j`` from the apex (twice
+the half-extent, pointing away from the reference face) along which the pressure drops by
+``g_j = |n . d_j| >= 0``. Face k spans ``d_p`` and ``d_q`` (p, q = k + 1, k + 2 mod 3) and is
+the parallelogram ``V, V + d_p, V + d_p + d_q, V + d_q``; its vertex pressures are
+``p0, p0 - g_p, p0 - g_p - g_q, p0 - g_q`` (in that order of operations), so the inside
+vertices are always the apex and its neighbours first (monotone rounding), and the depth clip
+is exact bookkeeping rather than a general polygon clip.
+
 Stages, all pairs at once:
 
-1. :func:`front_faces`: the three candidate faces of every row as quads of (u, w, p) in the
-   reference frame, one *column* per (face, row), with the orientation sign of the projection.
-2. :func:`clip_polygons`: the depth plane ``p >= 0`` cuts every quad with the same
-   elementwise formulas, in the quad's cyclic order, into 8 slots (:func:`depth_polygons`).
-   The four side planes (rarely reached: only a footprint crossing the reference face's rim)
-   clip by Sutherland-Hodgman, on the columns that reach past them: a step starts its output
-   at the entry crossing, walks the other slots (an outside one becomes the exit crossing) and
-   ends with the exit crossing, so a cut turns K slots into K + 1. Repeated points are exact
-   duplicates; emptied columns are dropped.
-3. :func:`fan_moments`: fan triangulation from slot 0 with the closed forms for a linear
-   pressure over a triangle of projected area S with vertices a, b, c::
+1. :func:`apex_edges`: per row, the apex, the edges ``d_j`` and drops ``g_j``.
+2. :func:`depth_slots`: per (face, row) the depth-clipped face as 4 slots after the apex, in
+   the face's cyclic order, relative to the apex: ``f_p d_p``, ``f_p d_p + mu d_q``,
+   ``f_q d_q + nu d_p``, ``f_q d_q``, with the fractions (:func:`_fraction`) of the edges from
+   the apex (``f``) and from its neighbours (``mu``, ``nu``) that stay at ``p >= 0``, and
+   pressures ``max(p, 0)`` (crossings have ``p = 0`` exactly). A triangle, quad or pentagon,
+   with repeated points where it has fewer than 5; an empty region collapses onto the apex.
+3. :func:`fan_sums` and :func:`moments`: fan triangulation from the apex with the closed forms
+   for a linear pressure over a triangle of projected area S with vertices a, b, c::
 
        int p    = S (pa + pb + pc) / 3
        int x p  = S / 12 [a (2pa + pb + pc) + b (pa + 2pb + pc) + c (pa + pb + 2pc)]
        int p^2  = S / 6 (pa^2 + pb^2 + pc^2 + pa pb + pb pc + pc pa)
 
-   A triangle with a repeated vertex contributes exactly 0, so the padding changes nothing.
-4. :func:`centre_of_pressure`: the faces' moments summed per row, in face order 0, 1, 2.
+   with ``S = |(b - a) x (c - a)| / 2`` (the polygons are convex, so each face's fan triangles
+   share its orientation). A triangle with a repeated vertex contributes exactly 0.
+4. The four side planes (rarely reached: only a footprint crossing the reference face's rim)
+   clip, on the faces that reach past them only, the absolute 5-point polygons by
+   Sutherland-Hodgman (:func:`clip_polygons`): a step starts its output at the entry
+   crossing, walks the other slots (an outside one becomes the exit crossing) and ends with the
+   exit crossing, so a cut turns K slots into K + 1; those faces' moments are replaced by the
+   fan of the clipped polygon from its slot 0 (:func:`fan_moments`).
+5. :func:`centre_of_pressure`: the faces' moments summed per row, in face order 0, 1, 2.
 
 Columns and order of operations follow :mod:`models.pressure_one` (the N = 1 path) term by
 term, so both give the same point to the last bit.
@@ -66,10 +80,12 @@ from models.sat import sign_nonnegative
 PRESSURE_FLOOR_REL = 1e-9
 #: Rows of a polygon array: (3, K, C) holds u, w (metres, reference frame) and the pressure p.
 U, W, P = range(3)
+#: The in-plane axes p = k + 1 and q = k + 2 (mod 3) of incident face k.
+FACE_P, FACE_Q = [1, 2, 0], [2, 0, 1]
 
 
-def front_faces(frame, tau):
-    """The incident box's faces that look towards the reference face, as quads.
+def apex_edges(frame, tau):
+    """The incident box's deepest vertex and its three edges, in the reference frame.
 
     Parameters
     ----------
@@ -80,48 +96,100 @@ def front_faces(frame, tau):
 
     Returns
     -------
-    poly : ndarray, shape (3, 4, C)
-        u, w and pressure ``p = d + tau`` of each quad's vertices (metres), cyclic order.
-    column_row, column_face : ndarray of int, shape (C,)
-        Row (0..m-1) and incident axis (0-2) of each column, face-major; faces seen edge-on
-        (``m . n == 0``) are left out.
-    orientation : ndarray, shape (C,)
-        +1 where the projected quad runs counter-clockwise in (u, w), else -1.
-    height, half_u, half_w : ndarray, shape (m,)
-        Reference half-extents along (axis, u, w) (metres).
+    apex : ndarray, shape (3, m)
+        u, w (metres) and pressure ``p0 = d + tau`` (metres) of the apex.
+    edge : ndarray, shape (2, 3, m)
+        u, w of the edges ``d_j`` from the apex along incident axis j (metres).
+    drop : ndarray, shape (3, m)
+        Pressure drop ``g_j >= 0`` along edge j (metres).
     ref_sign : ndarray, shape (m,)
         Side (+-1) of the reference face, facing the incident box.
     """
     t_ref = frame.centre()
+    rot = frame.rotation(0)  # (3 c, 3 j, m): incident axis j along (axis, u, w)
+    height = frame.half_ref()[0]
     ref_sign = sign_nonnegative(t_ref[0])
-    m = t_ref.shape[1]
-    axes, halves = frame.faces()  # (3 k, 3 role, 3 c, m), (3 k, 3 role, m)
-    height, half_u, half_w = frame.half_ref()
-    look = ref_sign * axes[:, 0, 0]  # (3 k, m): m_k . n
-    side = -sign_nonnegative(look)
-    centre = t_ref + (side * halves[:, 0])[:, None] * axes[:, 0]
-    along_p = halves[:, 1][:, None] * axes[:, 1]
-    along_q = halves[:, 2][:, None] * axes[:, 2]
-    plus_p, minus_p = centre + along_p, centre - along_p
-    vertices = np.empty((4, 3, 3, m))  # (vertex, k, coordinate, row)
-    np.add(plus_p, along_q, out=vertices[0])
-    np.add(minus_p, along_q, out=vertices[1])
-    np.subtract(minus_p, along_q, out=vertices[2])
-    np.subtract(plus_p, along_q, out=vertices[3])
-    poly = np.empty((3, 4, 3, m))
-    poly[U], poly[W] = vertices[:, :, 1], vertices[:, :, 2]
-    poly[P] = (height - ref_sign * vertices[:, :, 0]) + tau
-    poly = poly.reshape(3, 4, 3 * m)
-    columns = np.arange(3 * m)
-    # (m_p x m_q) . n: the projected quad's turning sense (also for a mirrored, improper pose)
-    turning = axes[:, 1, 1] * axes[:, 2, 2] - axes[:, 1, 2] * axes[:, 2, 1]
-    orientation = sign_nonnegative(turning).reshape(-1)
-    seen = look.reshape(-1) != 0.0
-    if not seen.all():
-        columns = np.flatnonzero(seen)
-        poly, orientation = poly[:, :, columns], orientation[columns]
-    face, row = np.divmod(columns, m)
-    return poly, row, face, orientation, height, half_u, half_w, ref_sign
+    towards = (-sign_nonnegative(ref_sign * rot[0]) * frame.half_inc(0)) * rot  # (3 c, 3 j, m)
+    apex = np.empty((3, len(ref_sign)))
+    np.add((t_ref[1:] + towards[1:, 0]) + towards[1:, 1], towards[1:, 2], out=apex[:2])
+    apex[P] = (height - ref_sign * (((t_ref[0] + towards[0, 0]) + towards[0, 1])
+                                    + towards[0, 2])) + tau
+    return apex, -2.0 * towards[1:], 2.0 * np.abs(towards[0]), ref_sign
+
+
+def _fraction(level, drop):
+    """Fraction (0-1) of an edge that stays at ``p >= 0``, from pressure ``level`` at its start
+    and a drop ``drop >= 0`` along it: 0 if ``level < 0``, 1 if ``level >= drop``, else
+    ``level / drop``. Shapes broadcast to (3, m)."""
+    inside = level >= 0.0
+    out = np.where(inside, 1.0, 0.0) * np.ones_like(drop)
+    return np.divide(level, drop, out=out, where=inside & (level < drop))
+
+
+def depth_slots(apex, edge, drop):
+    """The three front faces clipped to ``p >= 0``, as 4 slots after the apex.
+
+    Returns ``slots`` (2, 4, 3, m): u, w relative to the apex (metres) by slot, face k and row,
+    and ``pressure`` (4, 3, m) (metres, >= 0); see the module docstring (stage 2).
+    """
+    p0 = apex[P]
+    cut = _fraction(p0, drop) * edge  # (2, 3 j, m): where edge j leaves p >= 0
+    level = p0 - drop  # (3 j, m): pressure at the apex's neighbour along j
+    level_p, level_q, drop_p, drop_q = level[FACE_P], level[FACE_Q], drop[FACE_P], drop[FACE_Q]
+    slots = np.empty((2, 4) + drop.shape)
+    slots[:, 0], slots[:, 3] = cut[:, FACE_P], cut[:, FACE_Q]
+    np.add(slots[:, 0], _fraction(level_p, drop_q) * edge[:, FACE_Q], out=slots[:, 1])
+    np.add(slots[:, 3], _fraction(level_q, drop_p) * edge[:, FACE_P], out=slots[:, 2])
+    pressure = np.empty((4,) + drop.shape)
+    np.maximum(level_p, 0.0, out=pressure[0])
+    np.maximum(level_p - drop_q, 0.0, out=pressure[1])
+    pressure[2] = pressure[1]
+    np.maximum(level_q, 0.0, out=pressure[3])
+    return slots, pressure
+
+
+def _rows_in_order(terms):
+    """The sum of the rows of ``terms`` (R, ...), added one after the other (no pairwise
+    summation), as the scalar path adds them."""
+    total = terms[0].copy()
+    for row in terms[1:]:
+        total += row
+    return total
+
+
+def fan_sums(rel_u, rel_w, pressure, apex_p):
+    """Fan sums of polygons from their apex: ``rel_u``, ``rel_w`` (K - 1, ...) the other
+    slots relative to the apex (metres), ``pressure`` (K - 1, ...) theirs, ``apex_p`` the
+    apex's. The K - 2 triangles are evaluated together and summed row after row (the order of
+    the scalar path's loop).
+
+    Returns ``[sum_p, sum_u, sum_w, sum_pp]``, each (...): 6, 24, 24 and 12 times
+    ``int p dA``, ``int (u - u_apex) p dA``, ``int (w - w_apex) p dA``, ``int p^2 dA``.
+    """
+    b_u, c_u, b_w, c_w = rel_u[:-1], rel_u[1:], rel_w[:-1], rel_w[1:]
+    b_p, c_p = pressure[:-1], pressure[1:]
+    area = np.abs(b_u * c_w - b_w * c_u)  # twice the areas, (K - 2, ...)
+    total = (apex_p + b_p) + c_p
+    with_b, with_c = total + b_p, total + c_p
+    return [_rows_in_order(area * total),
+            _rows_in_order(area * (b_u * with_b + c_u * with_c)),
+            _rows_in_order(area * (b_w * with_b + c_w * with_c)),
+            _rows_in_order(area * (apex_p * total + b_p * (b_p + c_p) + c_p * c_p))]
+
+
+def moments(sums, apex_u, apex_w):
+    """``int p dA``, ``int u p dA``, ``int w p dA``, ``int p^2 dA`` (4, ...) (metres^3, ^4, ^4,
+    ^4) from :func:`fan_sums` and the apex's u, w."""
+    sum_p, sum_u, sum_w, sum_pp = sums
+    moment_p = sum_p / 6.0
+    return np.array([moment_p, apex_u * moment_p + sum_u / 24.0,
+                     apex_w * moment_p + sum_w / 24.0, sum_pp / 12.0])
+
+
+def fan_moments(poly):
+    """:func:`moments` (4, C) of polygons (3, K, C) (absolute u, w, p), fan from slot 0."""
+    a_u, a_w, a_p = poly[:, 0]
+    return moments(fan_sums(poly[U, 1:] - a_u, poly[W, 1:] - a_w, poly[P, 1:], a_p), a_u, a_w)
 
 
 def _cut_tables(k):
@@ -147,9 +215,11 @@ def _cut_tables(k):
     return entry, leave, walk, walk_inside
 
 
-#: :func:`_cut_tables` for the slot counts a side plane meets (8 after the depth step, one
+#: Slots of a depth-clipped face with its apex (:func:`depth_slots`).
+FACE_SLOTS = 5
+#: :func:`_cut_tables` for the slot counts a side plane meets (5 after the depth clip, one
 #: more per side plane that cuts).
-_CUT_TABLES = {k: _cut_tables(k) for k in range(8, 12)}
+_CUT_TABLES = {k: _cut_tables(k) for k in range(FACE_SLOTS, FACE_SLOTS + 4)}
 
 
 def _crossings(poly, s, start, end):
@@ -220,61 +290,24 @@ def _clip_part(part, columns, s, coordinate, value, parts):
                       keep[cut], np.ones(len(rows), bool)])
 
 
-def depth_polygons(quad):
-    """Clip quads (3, 4, C) to ``p >= 0``, keeping their cyclic order: (3, 8, C).
-
-    Slot ``2 i`` is vertex i where it is inside, else the exit crossing (the first edge, in
-    vertex order, from inside to outside); slot ``2 i + 1`` is the crossing on edge (i, i + 1)
-    where that edge changes side, else a repeat of slot ``2 i``. Every column gets the same
-    elementwise formulas (a quad entirely below the plane repeats its vertices, one entirely
-    above collapses to a point of zero area), and slot 0 is always a vertex of the clipped
-    polygon, the origin of :func:`fan_moments`. Crossings have ``p = 0`` exactly.
-    """
-    following = np.concatenate((quad[:, 1:], quad[:, :1]), axis=1)
-    (u, w, p), (u_next, w_next, p_next) = quad, following
-    denominator = p - p_next
-    moves = denominator != 0.0
-    lam = p / np.where(moves, denominator, 1.0)
-    lam = np.minimum(np.maximum(np.where(moves, lam, 0.0), 0.0), 1.0)
-    cross_u, cross_w = u + lam * (u_next - u), w + lam * (w_next - w)
-    inside = p >= 0.0
-    inside_next = np.concatenate((inside[1:], inside[:1]))
-    changes = inside != inside_next
-    leaves = inside & ~inside_next
-    exit_u, exit_w = np.zeros(quad.shape[2]), np.zeros(quad.shape[2])
-    for i in (3, 2, 1, 0):  # the first leaving edge wins
-        exit_u = np.where(leaves[i], cross_u[i], exit_u)
-        exit_w = np.where(leaves[i], cross_w[i], exit_w)
-    out = np.empty((3, 8, quad.shape[2]))
-    even, odd = out[:, 0::2], out[:, 1::2]
-    np.copyto(even[U], np.where(inside, u, exit_u))
-    np.copyto(even[W], np.where(inside, w, exit_w))
-    np.copyto(even[P], np.where(inside, p, 0.0))
-    np.copyto(odd[U], np.where(changes, cross_u, even[U]))
-    np.copyto(odd[W], np.where(changes, cross_w, even[W]))
-    np.copyto(odd[P], np.where(changes, 0.0, even[P]))
-    return out
-
-
 def clip_polygons(poly, half_u, half_w):
-    """Clip quads (3, 4, C) to ``p >= 0`` (:func:`depth_polygons`) and to ``|u| <= half_u``,
-    ``|w| <= half_w`` (C,).
+    """Clip polygons (3, K, C) (absolute u, w, p) to ``|u| <= half_u``, ``|w| <= half_w``
+    (C,).
 
-    A side plane is applied only to the polygons whose depth clip reaches past it (largest
-    u, -u, w, -w), the others being whole on its side. Columns are never copied to be
-    left alone: a part keeps a mask of its current columns, applied once at the end.
+    A side plane is applied only to the polygons that reach past it (largest u, -u, w, -w of
+    the input), the others being whole on its side. Columns are never copied to be left alone:
+    a part keeps a mask of its current columns, applied once at the end.
 
     Returns
     -------
     list of (poly, keep)
-        The clipped polygons in parts of equal slot count: ``poly`` (3, K, C_k) (slots past a
+        The clipped polygons in parts of equal slot count: ``poly`` (3, K', C_k) (slots past a
         polygon's end repeat a point), ``keep`` (C_k,) the input column of each.
     """
     count = poly.shape[2]
-    clipped = depth_polygons(poly)
-    reach = np.array([clipped[U].max(axis=0), -clipped[U].min(axis=0), clipped[W].max(axis=0),
-                      -clipped[W].min(axis=0)])
-    parts = [[clipped, np.arange(count), (poly[P] >= 0.0).any(axis=0)]]
+    reach = np.array([poly[U].max(axis=0), -poly[U].min(axis=0), poly[W].max(axis=0),
+                      -poly[W].min(axis=0)])
+    parts = [[poly, np.arange(count), np.ones(count, bool)]]
     for plane, (coordinate, halves, upper) in enumerate(
             ((U, half_u, True), (U, half_u, False), (W, half_w, True), (W, half_w, False))):
         for part in list(parts):
@@ -296,41 +329,26 @@ def clip_polygons(poly, half_u, half_w):
     return done
 
 
-def _rows_in_order(terms):
-    """The sum of the rows of ``terms`` (R, C), added one after the other (no pairwise
-    summation), as the scalar path adds them."""
-    total = terms[0].copy()
-    for row in terms[1:]:
-        total += row
-    return total
-
-
-def fan_moments(poly):
-    """Pressure moments of polygons (3, K, C) by a fan from slot 0.
-
-    The K - 2 triangles are evaluated together as (K - 2, C) arrays and summed along the first
-    axis, row after row (the order of the scalar path's loop).
-
-    Returns
-    -------
-    ndarray, shape (4, C)
-        ``int p dA``, ``int u p dA``, ``int w p dA`` and ``int p^2 dA`` over each polygon,
-        signed by its orientation (counter-clockwise positive); metres^3, ^4, ^4, ^4.
-    """
-    a_u, a_w, a_p = poly[:, 0]
-    rel_u, rel_w = poly[U, 1:] - a_u, poly[W, 1:] - a_w  # (K - 1, C)
-    b_u, c_u, b_w, c_w = rel_u[:-1], rel_u[1:], rel_w[:-1], rel_w[1:]
-    b_p, c_p = poly[P, 1:-1], poly[P, 2:]
-    area = b_u * c_w - b_w * c_u  # twice the signed areas, (K - 2, C)
-    total = (a_p + b_p) + c_p
-    with_b, with_c = total + b_p, total + c_p
-    sum_p = _rows_in_order(area * total)
-    sum_u = _rows_in_order(area * (b_u * with_b + c_u * with_c))
-    sum_w = _rows_in_order(area * (b_w * with_b + c_w * with_c))
-    sum_pp = _rows_in_order(area * (a_p * total + b_p * (b_p + c_p) + c_p * c_p))
-    moment_p = sum_p / 6.0
-    return np.array([moment_p, a_u * moment_p + sum_u / 24.0, a_w * moment_p + sum_w / 24.0,
-                     sum_pp / 12.0])
+def _side_clipped(apex, slots, pressure, half_u, half_w, per_face, deepest):
+    """Stage 4: replace, in ``per_face`` (4, 3 m) and ``deepest`` (3 m,), the moments and the
+    largest pressure of the faces that reach past a side plane (and whose apex has
+    ``p0 > 0``) by those of their clipped polygons (0 and -inf where nothing is left)."""
+    m = apex.shape[1]
+    apex_uw, bound = apex[:2, None], np.array([half_u, half_w])[:, None]
+    reach = ((apex_uw + np.maximum.reduce(slots, axis=1, initial=0.0) > bound)
+             | (apex_uw + np.minimum.reduce(slots, axis=1, initial=0.0) < -bound))
+    columns = np.flatnonzero((reach[0] | reach[1]) & (apex[P] > 0.0))
+    if not columns.size:
+        return
+    rows = columns % m
+    poly = np.empty((3, FACE_SLOTS, len(columns)))
+    poly[:, 0] = apex[:, rows]
+    np.add(apex[:2, None, rows], slots.reshape(2, 4, -1)[:, :, columns], out=poly[:2, 1:])
+    poly[P, 1:] = pressure.reshape(4, -1)[:, columns]
+    per_face[:, columns], deepest[columns] = 0.0, -np.inf
+    for part, keep in clip_polygons(poly, half_u[rows], half_w[rows]):
+        per_face[:, columns[keep]] = fan_moments(part)
+        deepest[columns[keep]] = part[P].max(axis=0)
 
 
 def centre_of_pressure(frame, scale, fallback):
@@ -356,14 +374,17 @@ def centre_of_pressure(frame, scale, fallback):
         empty.
     """
     tau = PRESSURE_FLOOR_REL * scale
-    poly, rows, faces, orientation, height, half_u, half_w, ref_sign = front_faces(frame, tau)
     m = len(scale)
-    per_face = np.zeros((4, 3, m))
-    per_face_deepest = np.full((3, m), -np.inf)
-    for part, keep in clip_polygons(poly, half_u[rows], half_w[rows]):
-        at = faces[keep] * m + rows[keep]
-        per_face.reshape(4, -1)[:, at] = fan_moments(part) * orientation[keep]
-        per_face_deepest.reshape(-1)[at] = part[P].max(axis=0)
+    apex, edge, drop, ref_sign = apex_edges(frame, tau)
+    height, half_u, half_w = frame.half_ref()
+    slots, pressure = depth_slots(apex, edge, drop)
+    per_face = moments(fan_sums(slots[U], slots[W], pressure, apex[P]), apex[U], apex[W])
+    per_face = per_face.reshape(4, 3 * m)
+    deepest = np.empty((3, m))
+    deepest[:] = apex[P]
+    deepest = deepest.reshape(-1)
+    _side_clipped(apex, slots, pressure, half_u, half_w, per_face, deepest)
+    per_face = per_face.reshape(4, 3, m)
     total = per_face[:, 0] + per_face[:, 1] + per_face[:, 2]
     weight = total[0]
     found = weight > 0.0
@@ -371,5 +392,5 @@ def centre_of_pressure(frame, scale, fallback):
     offset = np.maximum(0.5 * (total[3] / safe) - 0.5 * tau, 0.0)
     point = np.array([ref_sign * height - ref_sign * offset, total[1] / safe,
                       total[2] / safe])
-    deepest = np.maximum(np.maximum.reduce(per_face_deepest) - tau, 0.0)
-    return np.where(found, point, fallback), np.where(found, deepest, -np.inf)
+    region_depth = np.maximum(np.maximum.reduce(deepest.reshape(3, m)) - tau, 0.0)
+    return np.where(found, point, fallback), np.where(found, region_depth, -np.inf)

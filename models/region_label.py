@@ -16,7 +16,10 @@ What is left for the learned experts is the point, whose exact computation (the 
 pressure of the clipped footprint, :mod:`models.pressure`) is the expensive part.
 :func:`label_block` is the batch path (columns, as :mod:`models.exact`), :func:`label_one` the
 N = 1 path in Python floats (as :mod:`models.exact_scalar`); both give the exact solver's
-``colliding``, ``axis``, ``depth``, ``normal``, type and features bit for bit (tested).
+``colliding``, ``axis``, ``normal``, type and features bit for bit (tested), and its ``depth``
+except on face contacts whose incident box hangs beyond the reference face: there the labeller
+keeps the SAT overlap and the exact solver reports the shallower deepest point of the footprint
+(:mod:`models.exact`, stage 4).
 """
 from __future__ import annotations
 

@@ -37,10 +37,11 @@ overlap over the 15 axes is the true penetration depth ``c`` along the least-pen
 * the normal: by rule 1, a rejected ``u`` lies within ``phi = FACE_AXIS_ANGLE_TOL`` of ``n``
   itself; by rule 2 the face may win over a cross axis at any angle, but only when both are
   equally deep to ``DEPTH_GAIN_TOL_REL`` of the size (a tie);
-* the depth: a face contact reports the deepest point of its pressure region below the
-  reference face (:mod:`models.pressure`), not the SAT overlap along ``n`` (which counts the
-  incident box's deepest vertex even where it hangs beyond the reference face). It lies between
-  ``c`` and the overlap along ``n``; the overlaps along two unit axes differ by at most
+* the depth: a face contact reports the SAT overlap along ``n`` unless the deepest point of its
+  pressure region below the reference face is shallower (the incident box's deepest vertex
+  hangs beyond the reference face), then that point's depth (:mod:`models.exact`,
+  :data:`models.pressure.REGION_DEPTH_TOL_REL`). It lies between ``c`` and the overlap along
+  ``n``; the overlaps along two unit axes differ by at most
   ``|u - n| (rho_A + rho_B + |t|) <= 2 phi (rho_A + rho_B)`` (``rho``: a box's half diagonal),
   so the depth exceeds ``c`` by at most that bound, 7 cm for two 2 m cubes, and by at most
   4.4e-7 of the pair's scale on 560,000 first-contact poses of every size and orientation

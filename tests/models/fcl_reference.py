@@ -42,9 +42,10 @@ A = o1, B = o2; the scripts were run once, the key cases are re-checked in
   deepest point and three others spread in angle about the centroid). If
   ``num_max_contacts`` is smaller than what box-box returns, FCL keeps the deepest ones.
   With ties (the 45deg octagon, all 8 points equally deep) the last bit of the rotation
-  decides which 4 survive: q and -q gave two different subsets. So
-  FCL's manifold mean differs from impactnet's (mean over the whole clipped polygon)
-  whenever culling happened.
+  decides which 4 survive: q and -q gave two different subsets. So FCL's manifold differs
+  from impactnet's (the whole clipped polygon) whenever culling happened, and FCL's point (a
+  mean of its contacts) is not impactnet's centre of pressure of the footprint for any face
+  contact: only single-point contacts (edge-edge, and a vertex's manifold point) compare.
 * Fudge factor. FCL 0.7 keeps ODE's ``fudge_factor = 1.05`` but only in the axis SELECTION:
   an edge axis replaces the current best axis only if ``1.05 * its penetration`` is smaller;
   the depth it reports for the chosen axis is unscaled. Since the current best may itself

@@ -1,52 +1,72 @@
 """Exact solver at the numerical extremes: parallel faces and edges, huge coordinates, tiny and
-huge boxes, needles, gimbal lock. Every answer must be finite."""
+huge boxes, needles, gimbal lock. Every answer must be finite.
+
+The points of the tilted face contacts are checked against DESIGN.md's centre of pressure
+integrated exactly over polyhedra (``tests/models/overlap_volume.py``, no solver code), with
+the solver's pressure floor (:data:`models.pressure.PRESSURE_FLOOR_REL`) reproduced.
+"""
 import numpy as np
 import pytest
 
 from models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from models.exact import InvalidBoxError, box_box
-from models.rotations import euler_to_matrix, euler_to_quaternion, matrix_to_quaternion
+from models.pressure import PRESSURE_FLOOR_REL
+from models.rotations import (
+    euler_to_matrix,
+    euler_to_quaternion,
+    matrix_to_quaternion,
+    quaternion_to_matrix,
+)
 from tests.models.helpers import assert_finite
+from tests.models.overlap_volume import centre_of_pressure
 
 IDENTITY = [1.0, 0.0, 0.0, 0.0]
 TILTS = [0.0, 1e-15, 1e-12, 1e-9, 1e-6, 1e-3]
 #: Depth (metres) of the tilt scenarios: B (a 1 m cube) pressed 5 mm into A's top face.
 PRESS = 0.005
+#: Agreement of the solver's point with the polyhedral integration (x the pair's largest edge,
+#: metres): two float64 evaluations of the same integral in different orders; measured
+#: <= 1.5e-13 of the edge (the 10 m needle at aspect 1e4).
+COP_TOL_REL = 1e-12
+UP = np.array([0.0, 0.0, 1.0])
 
 
-def expected_tilted_face_point(tilt, axis):
-    """Depth-weighted mean of B's four bottom corners on the mid-surface (A's face reference).
+def rule_point(size_a, size_b, position_b, quaternion_b):
+    """DESIGN.md's point of B pressed into the top face of A (axis-aligned at the origin), with
+    the solver's pressure floor (PRESSURE_FLOOR_REL x the sum of the largest half-extents)."""
+    floor = PRESSURE_FLOOR_REL * 0.5 * (max(size_a) + max(size_b))
+    rot_b = quaternion_to_matrix(np.atleast_2d(quaternion_b))[0]
+    return centre_of_pressure((size_a, np.zeros(3), np.eye(3)), (size_b, position_b, rot_b), UP,
+                              floor)
 
-    B: unit cube, centre (0, 0, 1.5 - PRESS), tilted by `tilt` radians about the unit `axis`;
-    A: cube of edge 2 at the origin, top face z = 1. Independent of the solver's code.
-    """
+
+def tilted_cube_quaternion(tilt, axis):
+    """Rotation by ``tilt`` radians about the unit ``axis`` (Rodrigues), as a quaternion."""
     k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    rot = np.eye(3) + np.sin(tilt) * k + (1 - np.cos(tilt)) * k @ k
-    signs = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]])
-    corners = np.array([rot @ [0.5 * a, 0.5 * b, -0.5] for a, b in signs])
-    corners += [0, 0, 1.5 - PRESS]
-    depth = 1.0 - corners[:, 2]
-    mid = corners + np.outer(0.5 * depth, [0, 0, 1])
-    return (depth[:, None] * mid).sum(0) / depth.sum(), rot
+    return matrix_to_quaternion(np.eye(3) + np.sin(tilt) * k + (1 - np.cos(tilt)) * k @ k)[0]
 
 
 @pytest.mark.parametrize("axis", [np.array([0.0, 1.0, 0.0]), np.array([0.6, 0.8, 0.0])])
 def test_tilt_through_parallel_faces_moves_point_and_normal_continuously(axis):
+    """B (1 m cube) 5 mm into A's top face (2 m cube), tilted about a horizontal axis. A's face
+    is the least overlap (B's face axis gains twice as much overlap per radian of tilt), so
+    it is the reference: the point is the centre of pressure of B's bottom face (and of the
+    side faces that tilt towards A), tilt / (12 PRESS) m from the 1 m face's centre, a third
+    of the offset of a mean over its four corners (tilt / (4 PRESS))."""
     points, normals = [], []
     for tilt in TILTS:
-        expected, rot = expected_tilted_face_point(tilt, axis)
-        c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [1, 1, 1], [0, 0, 1.5 - PRESS],
-                    matrix_to_quaternion(rot)[0])
+        q = tilted_cube_quaternion(tilt, axis)
+        position_b = np.array([0.0, 0.0, 1.5 - PRESS])
+        c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [1, 1, 1], position_b, q)
         assert_finite(c)
         assert c.contact_type[0] == "face-face"
-        # Either face may be the reference (they tie at tilt 0): the normal is within the tilt.
-        assert np.arccos(min(1.0, c.normal[0] @ [0, 0, 1])) <= tilt + 1e-12
-        # Switching reference moves the point by O(tilt * depth), far below tilt * size.
-        np.testing.assert_allclose(c.point[0], expected, atol=1e-12 + tilt * 1.0)
+        np.testing.assert_array_equal(c.normal[0], UP)
+        expected = rule_point([2.0, 2, 2], [1.0, 1, 1], position_b, q)
+        np.testing.assert_allclose(c.point[0], expected, rtol=0, atol=COP_TOL_REL * 2.0)
         points.append(c.point[0])
         normals.append(c.normal[0])
     for i in range(1, len(TILTS)):
-        # Continuity: no jump larger than the tilt times the size (1 m) times the lever L / depth.
+        # Continuity: the point moves by about tilt x size (1 m) x size / (12 depth).
         bound = 1e-12 + TILTS[i] * 1.0 * (1.0 / PRESS)
         assert np.linalg.norm(points[i] - points[0]) <= bound
         assert np.linalg.norm(normals[i] - normals[0]) <= TILTS[i] + 1e-12
@@ -69,13 +89,23 @@ def test_near_parallel_edges_give_finite_face_contact(tilt):
 
 @pytest.mark.parametrize("tilt", TILTS)
 def test_near_parallel_edge_on_face_stays_face_edge(tilt):
+    """B (1 x 2 x 2) rolled 45 degrees stands on its 1 m x edge 10 mm deep in A's top face,
+    rolled and pitched by ``tilt`` more. Level, the depth profile is a tent of half-width
+    10 mm along the edge: the point is the edge's middle, depth / 3 below the face. Tilted,
+    the edge's ends differ in depth by ``tilt`` m and the point follows the exact integral."""
     qb = euler_to_quaternion([np.pi / 4 + tilt, tilt, 0])[0]
-    c = box_box([3, 3, 2], [0, 0, 0], IDENTITY, [1, 2, 2], [0, 0, 1 + np.sqrt(2) - 0.01], qb)
+    position_b = np.array([0.0, 0.0, 1 + np.sqrt(2) - 0.01])
+    c = box_box([3, 3, 2], [0, 0, 0], IDENTITY, [1, 2, 2], position_b, qb)
     assert_finite(c)
     assert c.contact_type[0] in ("face-edge", "face-vertex")
-    # The 1 m edge tilts by `tilt` along its length: its ends' depths differ by `tilt` m, which
-    # moves the depth-weighted point by at most tilt * length * (length / depth).
-    np.testing.assert_allclose(c.point[0], [0, 0, 0.995], atol=1e-12 + tilt * 1.0 / 0.01)
+    expected = rule_point([3.0, 3, 2], [1.0, 2, 2], position_b, qb)
+    np.testing.assert_allclose(c.point[0], expected, rtol=0, atol=COP_TOL_REL * 3.0)
+    # The tent's centroid, to the floor's shift (tau / 6 for a tent) and the tilt's: the ends'
+    # depths differ by tilt x length, which moves the point by at most tilt x length x
+    # (length / depth).
+    floor = PRESSURE_FLOOR_REL * 2.5
+    np.testing.assert_allclose(c.point[0], [0, 0, 1 - 0.01 / 3],
+                               atol=floor / 6 + 1e-12 + tilt * 1.0 * (1.0 / 0.01))
 
 
 @pytest.mark.parametrize("offset", [1e3, 1e6])
@@ -116,24 +146,33 @@ def test_box_scale_from_a_millimetre_to_a_kilometre_scales_the_answer(scale):
 
 @pytest.mark.parametrize("aspect", [1e2, 1e3, 1e4])
 def test_needle_across_a_box_top_touches_at_its_middle(aspect):
-    # A needle of length 10 m and thickness 10 / aspect lies across a 2 m cube, pressed 1 %
-    # of its thickness into the top face, yawed 30 degrees and rolled slightly.
+    """A needle of length 10 m and thickness 10 / aspect lies across a 2 m cube, pressed 1 %
+    of its thickness into the top face, yawed 30 degrees and rolled by 1e-3 rad: the roll
+    lifts one long bottom edge by thick sin(roll), so the depth runs linearly from p to s
+    across the needle. Cut by the cube's sides into a parallelogram whose every cross-section
+    has the same profile, the centre of pressure is (p^2 + p s + s^2) / (3 (p + s)) below the
+    face (the 1-D linear profile), plus the sliver of the side face the roll turns down."""
     thick = 10.0 / aspect
     press = 0.01 * thick
-    q = euler_to_quaternion([1e-3, 0, np.pi / 6])[0]
-    rot = euler_to_matrix([1e-3, 0, np.pi / 6])[0]
+    roll = 1e-3
+    q = euler_to_quaternion([roll, 0, np.pi / 6])[0]
+    rot = euler_to_matrix([roll, 0, np.pi / 6])[0]
     half_height = 0.5 * thick * (abs(rot[2, 1]) + abs(rot[2, 2])) + 5.0 * abs(rot[2, 0])
-    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [10, thick, thick],
-                [0.1, 0.2, 1 + half_height - press], q)
+    position_b = np.array([0.1, 0.2, 1 + half_height - press])
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [10, thick, thick], position_b, q)
     assert_finite(c)
     assert c.colliding[0]
     np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=1e-9)
     assert c.depth[0] == pytest.approx(press, rel=1e-6)
-    # The roll lifts one long bottom edge by thick * sin(roll): the manifold has two depths.
-    shallow = press - thick * np.sin(1e-3)
-    mean_depth = (press**2 + shallow**2) / (press + shallow)
-    assert c.point[0, 2] == pytest.approx(1 - mean_depth / 2, abs=1e-9 * thick)
     assert c.contact_type[0] == "face-face"
+    expected = rule_point([2.0, 2, 2], [10.0, thick, thick], position_b, q)
+    np.testing.assert_allclose(c.point[0], expected, rtol=0, atol=COP_TOL_REL * 10.0)
+    shallow = press - thick * np.sin(roll)
+    profile = (press**2 + press * shallow + shallow**2) / (3 * (press + shallow))
+    # The side face sliver is press x roll wide next to a face `thick` wide: it moves the
+    # offset by less than press x (press roll / thick); the floor by tau / 2 at most.
+    sliver = press * press * roll / thick + 0.5 * PRESSURE_FLOOR_REL * 6.0
+    assert c.point[0, 2] == pytest.approx(1 - profile, abs=sliver)
 
 
 @pytest.mark.parametrize("pitch", [np.pi / 2, -np.pi / 2])

@@ -1,14 +1,35 @@
-"""Exact solver: scenarios whose answers are known by hand."""
+"""Exact solver: scenarios whose answers are known by hand.
+
+Points follow DESIGN.md's centre of pressure: the depth-weighted centroid of the footprint,
+half the local depth below the reference face, i.e. the centroid of the solid between the
+face and the incident box. A vertex pressed into a face cuts off a tetrahedron (the point is
+the mean of its four corners: d / 4 below the face), an edge lying on a face a wedge (the
+tent profile: d / 3 below), a flat face a slab (the overlap rectangle's centroid, d / 2).
+"""
 import numpy as np
 import pytest
 
 from models import box_features as bf
 from models.exact import InvalidBoxError, box_box
-from models.rotations import InvalidRotationError, euler_to_quaternion, matrix_to_quaternion
+from models.pressure import PRESSURE_FLOOR_REL
+from models.rotations import (
+    InvalidRotationError,
+    euler_to_matrix,
+    euler_to_quaternion,
+    matrix_to_quaternion,
+)
 from tests.models.helpers import assert_finite
 
 #: Absolute tolerance (metres) for hand-computed answers: a few ulps of the metre scale.
 HAND_TOL = 1e-12
+
+
+def floor_tol(scale):
+    """Tolerance (metres) of a hand-computed point of a vertex or edge contact: the solver's
+    pressure floor tau = PRESSURE_FLOOR_REL x ``scale`` (the sum of both largest half-extents)
+    lifts such a point by tau / 4 (tetrahedron) or tau / 6 (tent) towards the face; flat
+    contacts have a uniform depth and are not moved."""
+    return HAND_TOL + 0.5 * PRESSURE_FLOOR_REL * scale
 IDENTITY = [1.0, 0.0, 0.0, 0.0]
 SQRT2, SQRT3 = np.sqrt(2.0), np.sqrt(3.0)
 
@@ -46,16 +67,21 @@ def test_partial_overlap_of_a_large_box_puts_the_point_at_the_overlap_centre():
     assert c.contact_type[0] == "face-face"
 
 
-def test_vertex_on_face_point_is_the_vertex_moved_half_the_depth():
+def test_vertex_on_face_point_is_a_quarter_of_the_depth_below_the_vertex():
+    """B's body diagonal is vertical: the cut-off corner is a tetrahedron whose base (an
+    equilateral triangle in the face) is centred under the vertex, so the point is the
+    vertex's projection, d / 4 below the face. The manifold is the vertex on the
+    mid-surface (d / 2 below), as before."""
     q = vertex_down_quaternion()
     centre = np.array([0.1, 0.2, 1.0 + SQRT3 - 0.01])
     c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [2, 2, 2], centre, q)
     assert c.contact_type[0] == "face-vertex"
     np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=1e-12)
     assert c.depth[0] == pytest.approx(0.01, abs=1e-12)
-    np.testing.assert_allclose(c.point[0], [0.1, 0.2, 0.995], atol=1e-12)
+    np.testing.assert_allclose(c.point[0], [0.1, 0.2, 1.0 - 0.01 / 4], atol=floor_tol(2.0))
     assert bf.feature_kind(c.feature_b[0]) == "vertex"
     assert c.manifold_count[0] == 1
+    np.testing.assert_allclose(c.manifold_points[0, 0], [0.1, 0.2, 0.995], atol=HAND_TOL)
 
 
 def test_vertex_of_a_on_face_of_b_mirrors_the_labels():
@@ -64,7 +90,29 @@ def test_vertex_of_a_on_face_of_b_mirrors_the_labels():
     c = box_box([2, 2, 2], centre, q, [2, 2, 2], [0, 0, 0], IDENTITY)
     assert c.contact_type[0] == "vertex-face"
     np.testing.assert_allclose(c.normal[0], [0, 0, -1], atol=1e-12)
-    np.testing.assert_allclose(c.point[0], [0.1, 0.2, 0.995], atol=1e-12)
+    np.testing.assert_allclose(c.point[0], [0.1, 0.2, 1.0 - 0.01 / 4], atol=floor_tol(2.0))
+
+
+def test_oblique_vertex_point_is_the_centroid_of_the_cut_off_tetrahedron():
+    """A cube in a general orientation presses its lowest vertex v 10 mm into A's face. Its
+    three edges leave v upwards with slopes e_k . z and cross the face at a_k = v + (d / e_k .
+    z) e_k: the region is the tetrahedron (v, a_1, a_2, a_3), whose centroid, the mean of its
+    corners, is the point (tangentially off the vertex towards the shallow edges)."""
+    depth = 0.01
+    rot = euler_to_matrix([0.6, -0.5, 0.2])[0]
+    lowest = -np.sign(rot[2])  # the vertex's signs along B's axes: every axis points down
+    centre = np.array([0.1, 0.2, 1.0 - depth + np.abs(rot[2]).sum()])
+    vertex = centre + rot @ lowest  # half-extents 1
+    edges = -lowest * rot  # columns: unit edge directions from the vertex, upwards
+    crossings = vertex + (depth / edges[2])[:, None] * edges.T  # (3 edges, 3)
+    expected = (vertex + crossings.sum(axis=0)) / 4.0
+    c = box_box([2, 2, 2], [0, 0, 0], IDENTITY, [2, 2, 2], centre,
+                matrix_to_quaternion(rot)[0])
+    assert c.contact_type[0] == "face-vertex"
+    assert c.depth[0] == pytest.approx(depth, abs=HAND_TOL)
+    assert expected[2] == pytest.approx(1.0 - depth / 4, abs=HAND_TOL)
+    np.testing.assert_allclose(c.point[0], expected, atol=floor_tol(2.0))
+    assert np.linalg.norm(expected[:2] - vertex[:2]) > 1e3 * floor_tol(2.0)  # not the vertex
 
 
 def test_edges_crossing_at_90_degrees_give_edge_edge():
@@ -80,16 +128,19 @@ def test_edges_crossing_at_90_degrees_give_edge_edge():
 
 @pytest.mark.parametrize("yaw", [0.0, np.pi / 4])
 def test_edge_lying_on_a_face_at_45_degrees_gives_face_edge(yaw):
-    # B (1 x 2 x 2) rolled 45 degrees about its x axis rests on its lowest x edge, which is
-    # then turned by `yaw` in the plane of A's top face.
+    """B (1 x 2 x 2) rolled 45 degrees about its x axis rests on its lowest x edge, which is
+    then turned by `yaw` in the plane of A's top face. The depth profile is a tent (d at the
+    edge, 0 at 2 d across) along the whole edge: the point is the edge's middle, d / 3 below
+    the face (the depth-weighted segment centroid on the mid-surface)."""
     qb = euler_to_quaternion([np.pi / 4, 0, yaw])[0]
     c = box_box([3, 3, 2], [0, 0, 0], IDENTITY, [1, 2, 2], [0.2, -0.1, 1 + SQRT2 - 0.01], qb)
     assert c.contact_type[0] == "face-edge"
     assert c.feature_b[0] == bf.edge_id(0, True, True)
     np.testing.assert_allclose(c.normal[0], [0, 0, 1], atol=1e-12)
     assert c.depth[0] == pytest.approx(0.01, abs=1e-12)
-    np.testing.assert_allclose(c.point[0], [0.2, -0.1, 0.995], atol=1e-12)
+    np.testing.assert_allclose(c.point[0], [0.2, -0.1, 1.0 - 0.01 / 3], atol=floor_tol(2.5))
     assert c.manifold_count[0] == 2
+    np.testing.assert_allclose(c.manifold_points[0, :2, 2], 0.995, atol=HAND_TOL)
 
 
 def test_box_inside_another_pushes_out_through_the_nearest_face():
