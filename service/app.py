@@ -17,7 +17,8 @@ from fastapi.openapi.utils import get_openapi
 
 from impactnet import __version__
 from service import errors
-from service.middleware import BodyLimit, ConcurrencyLimit, RequestContext
+from service.body import BodyReader
+from service.middleware import ConcurrencyLimit, RequestContext
 from service.predictors import ServingState
 from service.reload import Reloader
 from service.routers import admin, batch, contact, health, metrics, models
@@ -36,6 +37,12 @@ committee, with the exact solver for the pairs it is unsure of or has no model f
 answer names the `predictor` that answered it. Default mode: `auto` with a bundle, `exact`
 without (GET /v1/models).
 
+Conventions (GET /v1/models: `conventions`): `normal` points from A towards B; `point` is the
+centre of pressure of the contact region (pressure proportional to the local penetration
+depth), on the mid-surface, and need not lie inside the hull of the manifold's points;
+`include=manifold` gives, as before, the incident face's clip against the reference face: its
+points and depths (>= 0), the deepest first.
+
 Units: metres and radians. A body is `size` (full edge lengths) or a scene `object`, a
 `position` (centre, world frame) and exactly one orientation: `quaternion` [w, x, y, z]
 (normalised here), `matrix` (3x3 rows, v_world = R v_body) or `euler` (radians; `zyx` =
@@ -43,10 +50,13 @@ Units: metres and radians. A body is `size` (full edge lengths) or a scene `obje
 R = Rx(a) Ry(b) Rz(c)).
 
 Errors share one JSON envelope (`error`, `message`, `detail` naming the field, the reason and
-for batches the rows, `request_id`): 422 invalid input, 422 `unsupported_pair` (a strict
-learned mode has no model for the pair's box sizes), 413 body or batch too large, 409 mode
-not served (no bundle), 503 not ready / draining / overloaded (Retry-After), 415/406 media
-types. `POST /v1/admin/reload` exists only when an admin token is configured.
+for batches the rows, at most 20 items and one that counts the rest, `request_id`): 422
+invalid input (a key given twice in one JSON object included), 422 `unsupported_pair` (a
+strict learned mode has no model for the pair's box sizes), 413 body or batch too large (64
+KiB for a single pair, 32 MiB for a JSON batch, 64 MiB for npz), 408 `body_timeout` (the body
+did not arrive within `body_timeout_s`), 409 mode not served (no bundle), 503 not ready /
+draining / overloaded (no compute slot, or no room in the memory budget; Retry-After),
+415/406 media types. `POST /v1/admin/reload` exists only when an admin token is configured.
 Every response carries `X-Request-ID` (yours if you sent a sane one); /v1 answers carry
 `X-Model-Version`.
 """ + batch.LAYOUT
@@ -103,7 +113,7 @@ def create_app(settings: Settings | None = None, state: ServingState | None = No
         app.include_router(module.router)
     # add_middleware prepends: the last one added is the outermost.
     app.add_middleware(ConcurrencyLimit, runtime=runtime)
-    app.add_middleware(BodyLimit, runtime=runtime)
+    app.add_middleware(BodyReader, runtime=runtime)
     app.add_middleware(RequestContext, runtime=runtime)
     app.openapi = _openapi(app, admin_enabled)
     return app

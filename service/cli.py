@@ -6,10 +6,11 @@ scene hash, smoke test) before the port is bound: a failure exits with status 2.
 override ``IMPACTNET_*`` environment variables (see :class:`service.settings.Settings`); the
 admin token is read from the environment only (a flag would show in ``ps``).
 
-Shutdown: the first SIGTERM / SIGINT turns /readyz to 503 at once, waits ``drain_delay_s``
-(0 by default) so that a load balancer can take the replica out, then uvicorn stops
-accepting, lets in-flight requests finish (up to ``graceful_timeout_s``) and exits; ``run``
-returns 0. A second signal forces the exit.
+Shutdown: the first SIGTERM / SIGINT turns /readyz to 503 at once and every answer says
+``Connection: close``; after ``drain_delay_s`` (1 s by default) so that a load balancer can take
+the replica out, uvicorn stops accepting, uploads still in progress end with 503, in-flight
+requests finish (up to ``graceful_timeout_s``) and the process exits; ``run`` returns 0. A
+second signal forces the exit.
 """
 from __future__ import annotations
 
@@ -36,14 +37,24 @@ _FLAGS = [
      "it exists; 'none' for mode exact only)"),
     ("--default-mode", "default_mode", str,
      "mode of requests that name none (default: auto with a bundle, exact without)"),
-    ("--max-body-bytes", "max_body_bytes", int, "largest request body (default 64 MiB)"),
+    ("--max-body-bytes", "max_body_bytes", int, "largest request body (npz; default 64 MiB)"),
+    ("--max-json-body-bytes", "max_json_body_bytes", int,
+     "largest JSON batch body (default 32 MiB)"),
+    ("--max-pair-body-bytes", "max_pair_body_bytes", int,
+     "largest body of a single pair or a reload (default 64 KiB)"),
+    ("--body-timeout", "body_timeout_s", float,
+     "seconds for a request body to arrive, else 408 (default 10)"),
+    ("--memory-budget-bytes", "memory_budget_bytes", int,
+     "memory budget of bodies, batches and answers (default 512 MiB)"),
     ("--max-batch-pairs", "max_batch_pairs", int, "largest batch (default 100000)"),
-    ("--max-concurrency", "max_concurrency", int, "most /v1 requests in flight (default 64)"),
+    ("--max-concurrency", "max_concurrency", int,
+     "most /v1 requests being computed (default 64)"),
+    ("--max-batch-workers", "max_batch_workers", int, "batches solved at once (default 2)"),
     ("--log-level", "log_level", str, "debug, info, warning, error (default info)"),
     ("--graceful-timeout", "graceful_timeout_s", float,
      "seconds to let in-flight requests finish on shutdown (default 30)"),
     ("--drain-delay", "drain_delay_s", float,
-     "seconds between SIGTERM (readyz 503) and closing the socket (default 0)"),
+     "seconds between SIGTERM (readyz 503) and closing the socket (default 1)"),
 ]
 
 

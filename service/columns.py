@@ -1,27 +1,20 @@
-"""Batches: columnar JSON or npz in, validated `PairInputs`; `Contacts` out as JSON or npz.
+"""Batch columns -> validated `PairInputs`: shapes, finiteness, ranges, names, rotations.
 
 Everything is vectorised over pairs: columns become NumPy arrays in one call each, checks are
-array expressions that report the offending rows, object names are looked up once per distinct
-name, and the JSON answer is written by orjson straight from the arrays.
-
-Binary layout (``application/x-npz``, request and response): an uncompressed or deflated
-NumPy ``.npz`` archive, read with ``allow_pickle=False``; one ``.npy`` member per column, named
-like the JSON columns. Numbers as any integer or float dtype (converted to float64), names as
-unicode (``<U``) arrays. See docs/service.md for the full layout.
+array expressions that report the offending rows, and object names are looked up once per
+distinct name. The columns come from a JSON body (:mod:`service.batch_json`) or an npz body
+(:mod:`service.npz`, layout in docs/service.md); both read this module's column table first,
+to check a column's size before it is decoded.
 """
 from __future__ import annotations
 
-import io
 import math
-import zipfile
 
 import numpy as np
-import orjson
 
-from models.contacts import CONTACT_TYPES, Contacts
 from models.rotations import InvalidRotationError, rotation_to_quaternion
 from service.errors import InputError, PayloadTooLarge
-from service.pairs import paper_angles, rotation_reason, unknown_object_reason
+from service.pairs import rotation_reason, unknown_object_reason
 from service.predictors import PairInputs
 from service.scene import SceneView
 from service.schemas import ANGLE_MAX, OBJECT_NAME_MAX, POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
@@ -30,7 +23,7 @@ JSON = "application/json"
 NPZ = "application/x-npz"
 OPTIONS = ("mode", "include", "euler_convention")
 #: Per side: column -> (trailing shape, lower bound, upper bound); "object" holds names.
-_NUMERIC = {
+NUMERIC = {
     "size": ((3,), SIZE_MIN_M, SIZE_MAX_M),
     "position": ((3,), -POSITION_MAX_M, POSITION_MAX_M),
     "quaternion": ((4,), -ANGLE_MAX, ANGLE_MAX),
@@ -39,69 +32,35 @@ _NUMERIC = {
 }
 COLUMNS = tuple(f"{side}_{name}" for side in "ab"
                 for name in ("object", "size", "position", "quaternion", "matrix", "euler"))
-_CONTACT_NAMES = np.asarray(CONTACT_TYPES)
-_NPY_HEADER_MAX = 10_000  # bytes; np.save writes ~128
+#: Bytes a NumPy string holds per character (``<U``: UCS-4).
+UNICODE_CHAR_BYTES = 4
 
 
-# ------------------------------------------------------------------------------ decoding
+def tail_of(column: str) -> tuple[int, ...] | None:
+    """Trailing shape of one row of a numeric column, None for an object-name column."""
+    kind = column.split("_", 1)[1]
+    return None if kind == "object" else NUMERIC[kind][0]
 
 
-def parse_json(body: bytes) -> tuple[dict, dict]:
-    """``(columns, options)`` of a JSON batch body."""
-    try:
-        data = orjson.loads(body)
-    except orjson.JSONDecodeError as exc:
-        raise InputError("body", f"malformed JSON: {exc}", type_="json_invalid") from exc
-    if not isinstance(data, dict):
-        raise InputError("body", "expected a JSON object of columns", type_="json_type")
-    options = {k: data.pop(k) for k in OPTIONS if k in data}
-    return data, options
+def unknown_column(name: str) -> InputError:
+    return InputError(str(name), f"unknown column; columns are {', '.join(COLUMNS)} and "
+                      f"options {', '.join(OPTIONS)}", type_="extra_forbidden")
 
 
-def parse_npz(body: bytes, max_bytes: int) -> dict:
-    """Columns of an npz body. Headers are read first: object arrays, members larger than
-    their data and a total expanded size above ``max_bytes`` (413) are refused unread."""
-    try:
-        archive = zipfile.ZipFile(io.BytesIO(body))
-        members = archive.infolist()
-        if sum(m.file_size for m in members) > max_bytes:
-            raise PayloadTooLarge("body_too_large", f"npz body expands beyond the limit of "
-                                  f"{max_bytes} bytes")
-        columns = {}
-        for member in members:
-            name = member.filename
-            if not name.endswith(".npy") or name[:-4] in columns:
-                raise InputError("body", f"npz member {name!r}: expected one <column>.npy per "
-                                 "column", type_="npz_invalid")
-            with archive.open(member) as f:
-                version = np.lib.format.read_magic(f)
-                if version not in ((1, 0), (2, 0)):
-                    raise ValueError(f"npy format version {version} (use 1.0 or 2.0)")
-                read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                        else np.lib.format.read_array_header_2_0)
-                shape, _, dtype = read(f, max_header_size=_NPY_HEADER_MAX)
-                if dtype.hasobject:
-                    raise InputError(name[:-4], "object arrays are not accepted (no pickle)",
-                                     type_="npz_invalid")
-                if math.prod(shape) * dtype.itemsize > member.file_size:
-                    raise ValueError(f"member {name!r} is shorter than its header says")
-            with archive.open(member) as f:
-                columns[name[:-4]] = np.lib.format.read_array(
-                    f, allow_pickle=False, max_header_size=_NPY_HEADER_MAX)
-        return columns
-    except (InputError, PayloadTooLarge):
-        raise
-    except Exception as exc:  # noqa: BLE001 - any fault of untrusted bytes is a bad body
-        raise InputError("body", f"malformed npz: {type(exc).__name__}: {exc}",
-                         type_="npz_invalid") from exc
+def too_many_pairs(n: int, max_pairs: int) -> PayloadTooLarge:
+    return PayloadTooLarge("batch_too_large", f"{n} pairs in one batch; the limit is "
+                           f"{max_pairs}")
 
 
 def _rows_of(array: np.ndarray, tail: tuple) -> tuple[np.ndarray, bool]:
-    """``(n, *tail)`` view and whether the column is per pair (else one broadcast value)."""
+    """``(n, *tail)`` view and whether the column is per pair (else one broadcast value).
+    An empty list (JSON ``[]``, shape (0,)) is a column of zero pairs."""
     if array.shape == tail:
         return array[None], False
     if array.ndim == len(tail) + 1 and array.shape[1:] == tail:
         return array, True
+    if array.shape == (0,):
+        return array.reshape((0, *tail)), True
     raise ValueError
 
 
@@ -122,7 +81,7 @@ def _numeric(name: str, value, tail: tuple, lo: float, hi: float):
         raise InputError(name, f"expected shape {want}, got {list(array.shape)}",
                          type_="shape") from None
     rows = rows.astype(np.float64, copy=False)
-    flat = rows.reshape(len(rows), -1)
+    flat = rows.reshape(len(rows), math.prod(tail))  # -1 is ambiguous for 0 rows
     bad = ~np.isfinite(flat).all(axis=1)
     if bad.any():
         raise InputError(name, "not a finite number (NaN or Infinity)", np.flatnonzero(bad),
@@ -140,6 +99,8 @@ def _names(name: str, value):
         array = np.asarray(value)
     except (ValueError, TypeError) as exc:
         raise InputError(name, "ragged", type_="ragged") from exc
+    if array.shape == (0,):  # JSON [] (float64) or an empty <U column: zero pairs
+        return np.zeros(0, dtype="<U1"), True
     if array.dtype.kind != "U" or array.ndim > 1:
         raise InputError(name, "expected an object name or an array of N names",
                          type_="string_type")
@@ -168,8 +129,7 @@ def batch_pairs(columns: dict, scene: SceneView, convention: str,
     """
     unknown = sorted(set(columns) - set(COLUMNS))
     if unknown:
-        raise InputError(str(unknown[0]), f"unknown column; columns are {', '.join(COLUMNS)} "
-                         f"and options {', '.join(OPTIONS)}", type_="extra_forbidden")
+        raise unknown_column(unknown[0])
     parsed, per_pair = {}, {}
     for side in "ab":
         if f"{side}_position" not in columns:
@@ -181,7 +141,7 @@ def batch_pairs(columns: dict, scene: SceneView, convention: str,
             if kind == "object":
                 parsed[key], per_pair[key] = _names(key, columns[key])
             else:
-                parsed[key], per_pair[key] = _numeric(key, columns[key], *_NUMERIC[kind])
+                parsed[key], per_pair[key] = _numeric(key, columns[key], *NUMERIC[kind])
     lengths = {k: len(v) for k, v in parsed.items() if per_pair[k]}
     n = max(lengths.values(), default=1)
     ragged = sorted(k for k, length in lengths.items() if length != n)
@@ -192,8 +152,7 @@ def batch_pairs(columns: dict, scene: SceneView, convention: str,
         raise InputError(next(iter(lengths)), "empty batch: give at least one pair",
                          type_="too_short")
     if n > max_pairs:
-        raise PayloadTooLarge("batch_too_large", f"{n} pairs in one batch; the limit is "
-                              f"{max_pairs}")
+        raise too_many_pairs(n, max_pairs)
     out = {}
     for side in "ab":
         if f"{side}_object" in parsed:
@@ -219,51 +178,3 @@ def batch_pairs(columns: dict, scene: SceneView, convention: str,
     return PairInputs(**{k: (np.broadcast_to(v, (n, width[k.split("_")[0]]))
                              if k.split("_")[0] in width else np.broadcast_to(v, (n,)))
                          for k, v in out.items()})
-
-
-# ------------------------------------------------------------------------------ encoding
-
-
-def answer_arrays(contacts: Contacts, pairs: PairInputs, include) -> dict[str, np.ndarray]:
-    """The answer's columns as arrays (little-endian, C-contiguous)."""
-    first = contacts.predictor[:1]
-    if len(first) and (contacts.predictor == first[0]).all():  # one predictor: skip the sort
-        predictor_names, predictor_code = first, np.zeros(len(contacts), np.int8)
-    else:
-        predictor_names, predictor_code = np.unique(contacts.predictor, return_inverse=True)
-    out = {
-        "colliding": contacts.colliding.astype(np.bool_),
-        "point": contacts.point.astype("<f8"),
-        "normal": contacts.normal.astype("<f8"),
-        "depth": contacts.depth.astype("<f8"),
-        "contact_type_code": contacts.contact_type_code.astype(np.int8),
-        "feature_a": contacts.feature_a.astype(np.int8),
-        "feature_b": contacts.feature_b.astype(np.int8),
-        "axis": contacts.axis.astype(np.int8),
-        "confidence": contacts.confidence.astype("<f8"),
-        "predictor_code": predictor_code.reshape(-1).astype(np.int8),
-        "predictor_names": predictor_names.astype(str),
-    }
-    if "manifold" in include:
-        out["manifold_count"] = contacts.manifold_count.astype(np.int8)
-        out["manifold_points"] = contacts.manifold_points.astype("<f8")
-        out["manifold_depths"] = contacts.manifold_depths.astype("<f8")
-    if "paper_angles" in include:
-        out["paper_angles"] = paper_angles(contacts, pairs).astype("<f8")
-    return {k: np.ascontiguousarray(v) for k, v in out.items()}
-
-
-def encode_json(arrays: dict, mode: str, model_version: str) -> bytes:
-    body = {"n": int(len(arrays["depth"])), "mode": mode, "model_version": model_version,
-            "predictor": arrays["predictor_names"][arrays["predictor_code"]].tolist(),
-            "contact_type": _CONTACT_NAMES[arrays["contact_type_code"]].tolist()}
-    skip = ("predictor_code", "predictor_names", "contact_type_code")
-    body.update((k, v) for k, v in arrays.items() if k not in skip)
-    return orjson.dumps(body, option=orjson.OPT_SERIALIZE_NUMPY)
-
-
-def encode_npz(arrays: dict, mode: str, model_version: str) -> bytes:
-    buffer = io.BytesIO()
-    np.savez(buffer, mode=np.array(mode), model_version=np.array(model_version),
-             contact_type_names=_CONTACT_NAMES, **arrays)
-    return buffer.getvalue()

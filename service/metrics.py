@@ -1,6 +1,7 @@
 """Prometheus metrics of one app (its own registry, so several apps can live in one process)."""
 from __future__ import annotations
 
+import os
 import threading
 
 from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram, disable_created_metrics
@@ -12,6 +13,15 @@ disable_created_metrics()
 LATENCY_BUCKETS = (0.0005, 0.001, 0.002, 0.003, 0.005, 0.0075, 0.01, 0.025, 0.05, 0.1, 0.25,
                    0.5, 1.0, 2.0, 5.0, 10.0)
 BATCH_BUCKETS = (1, 10, 100, 1_000, 10_000, 100_000, 1_000_000)
+
+
+def resident_bytes() -> float:
+    """Resident set size of this process in bytes (0 where /proc is missing)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return float(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0.0
 
 
 class Metrics:
@@ -29,8 +39,17 @@ class Metrics:
         self.in_flight = Gauge("impactnet_http_in_flight_requests",
                                "/v1 requests being served now.", registry=r)
         self.rejected = Counter(
-            "impactnet_http_rejected", "Requests refused before reaching a handler, by reason "
-            "(body_too_large, overloaded).", ["reason"], registry=r)
+            "impactnet_http_rejected", "Requests refused before or while being computed, by "
+            "reason (body_too_large, body_timeout, overloaded, memory_budget).", ["reason"],
+            registry=r)
+        self.budget_limit = Gauge("impactnet_memory_budget_bytes",
+                                  "The process's memory budget (settings).", registry=r)
+        self.budget_used = Gauge("impactnet_memory_budget_used_bytes",
+                                 "Bytes of the memory budget reserved now.", registry=r)
+        self.budget_peak = Gauge("impactnet_memory_budget_peak_bytes",
+                                 "Most bytes of the memory budget reserved at once.", registry=r)
+        self.rss = Gauge("impactnet_process_resident_bytes",
+                         "Resident memory of the process now (Linux: /proc).", registry=r)
         self.pairs = Counter(
             "impactnet_pairs_scored", "Box pairs answered, by requested mode and by the "
             "predictor that answered them.", ["mode", "predictor"], registry=r)
@@ -51,6 +70,13 @@ class Metrics:
             ["model_version", "scene", "scene_hash", "modes"], registry=r)
         self._auto_lock = threading.Lock()  # batches are counted from worker threads
         self._auto_pairs = self._auto_fallbacks = 0
+
+    def bind_budget(self, budget) -> None:
+        """Export ``budget`` (a :class:`service.budget.MemoryBudget`), read at scrape time."""
+        self.budget_limit.set(budget.limit)
+        self.budget_used.set_function(lambda: budget.used)
+        self.budget_peak.set_function(lambda: budget.peak)
+        self.rss.set_function(resident_bytes)
 
     def record_predictions(self, mode: str, predictor_counts: dict[str, int]) -> None:
         """Count the pairs of one request by predictor; in mode 'auto' the rows that the exact

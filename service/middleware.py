@@ -3,13 +3,16 @@
 Order, outermost first:
 
 1. :class:`RequestContext`: request id (``X-Request-ID`` honoured and returned), one JSON
-   access-log line, the request / latency metrics, and the catch-all: an exception that escapes
-   the app is logged with its traceback and answered with a JSON 500 (the only 500 there is).
-2. :class:`BodyLimit`: 413 before the app runs when ``Content-Length`` exceeds the limit, and
-   while the body streams in (counting the bytes of ``http.request`` messages) when it is
-   chunked or lies; the body is never read whole first.
-3. :class:`ConcurrencyLimit`: at most ``max_concurrency`` ``/v1`` requests in flight; more get
-   503 with ``Retry-After`` at once (probes and /metrics are never limited).
+   access-log line, the request / latency metrics, ``Connection: close`` on every answer
+   while the server drains (keep-alive clients reconnect elsewhere before the socket closes),
+   and the catch-all: an exception that escapes the app is logged with its traceback and
+   answered with a JSON 500 (the only 500 there is).
+2. :class:`service.body.BodyReader`: the whole body is read first, under its route's size
+   cap, the body deadline (408) and the memory budget (see there).
+3. :class:`ConcurrencyLimit`: at most ``max_concurrency`` ``/v1`` requests being computed,
+   from the arrival of their whole body to the start of their answer; more get 503 with
+   ``Retry-After`` at once (probes and /metrics are never limited). Refusals feed the
+   saturation that /readyz reports (:mod:`service.saturation`).
 """
 from __future__ import annotations
 
@@ -18,42 +21,28 @@ import time
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service.errors import PayloadTooLarge, error_body
 from service.logging import request_id_from, request_id_var
+from service.respond import Middleware, header, send_error
 from service.runtime import Runtime
 
 log = logging.getLogger("impactnet.service")
 access = logging.getLogger("impactnet.access")
 
-_JSON_HEADERS = [(b"content-type", b"application/json")]
+_CLOSE = (b"connection", b"close")
+_BATCH = "/v1/contact/batch"
 
 
-async def send_error(send: Send, status: int, error: str, message: str,
-                     headers: list[tuple[bytes, bytes]] | None = None) -> None:
-    body = error_body(status, error, message)
-    await send({"type": "http.response.start", "status": status,
-                "headers": _JSON_HEADERS + [(b"content-length", str(len(body)).encode())]
-                + (headers or [])})
-    await send({"type": "http.response.body", "body": body})
-
-
-def _header(scope: Scope, name: bytes) -> bytes | None:
-    for key, value in scope["headers"]:
-        if key == name:
-            return value
-    return None
-
-
-class RequestContext:
+class RequestContext(Middleware):
     def __init__(self, app: ASGIApp, runtime: Runtime) -> None:
-        self.app, self.runtime = app, runtime
+        super().__init__(app, runtime)
+        self._cache: dict[tuple[str, str, int], tuple] = {}
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
         started = time.perf_counter()
-        rid = request_id_from(_header(scope, b"x-request-id"))
+        rid = request_id_from(header(scope, b"x-request-id"))
         token = request_id_var.set(rid)
         rid_header = (b"x-request-id", rid.encode())
         status, response_started = 500, False
@@ -62,7 +51,10 @@ class RequestContext:
             nonlocal status, response_started
             if message["type"] == "http.response.start":
                 response_started, status = True, message["status"]
-                message = {**message, "headers": [*message.get("headers", ()), rid_header]}
+                headers = [*message.get("headers", ()), rid_header]
+                if self.runtime.draining and _CLOSE not in headers:
+                    headers.append(_CLOSE)
+                message = {**message, "headers": headers}
             await send(message)
 
         try:
@@ -76,80 +68,67 @@ class RequestContext:
             self._record(scope, status, time.perf_counter() - started)
             request_id_var.reset(token)
 
+    def _series(self, template: str, method: str, status: int):
+        """The request counter and latency histogram of one (route, method, status), looked
+        up once: ``labels()`` costs ~3 us a call, on every request. Routes are templates and
+        unknown paths one "<unmatched>", so the cache stays small."""
+        key = (template, method, status)
+        series = self._cache.get(key)
+        if series is None:
+            metrics = self.runtime.metrics
+            series = self._cache[key] = (metrics.requests.labels(template, method, str(status)),
+                                         metrics.latency.labels(template, method))
+        return series
+
     def _record(self, scope: Scope, status: int, seconds: float) -> None:
         route = scope.get("route")
         template = getattr(route, "path", None) or "<unmatched>"
         method = scope.get("method", "")
-        metrics = self.runtime.metrics
-        metrics.requests.labels(template, method, str(status)).inc()
-        metrics.latency.labels(template, method).observe(seconds)
+        requests, latency = self._series(template, method, status)
+        requests.inc()
+        latency.observe(seconds)
         if self.runtime.settings.access_log:
             access.info("request", extra={"method": method, "path": scope.get("path"),
                                           "status": status, "ms": round(seconds * 1e3, 3)})
 
 
-class BodyLimit:
+class ConcurrencyLimit(Middleware):
     def __init__(self, app: ASGIApp, runtime: Runtime) -> None:
-        self.app, self.runtime = app, runtime
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        limit = self.runtime.settings.max_body_bytes
-        message = f"request body larger than the limit of {limit} bytes"
-        declared = _header(scope, b"content-length")
-        if declared is not None and declared.isdigit() and int(declared) > limit:
-            self.runtime.metrics.rejected.labels("body_too_large").inc()
-            await send_error(send, 413, "body_too_large", message, [(b"connection", b"close")])
-            return
-        received = 0
-        response_started = False
-
-        async def counting_receive() -> Message:
-            nonlocal received
-            msg = await receive()
-            if msg["type"] == "http.request":
-                received += len(msg.get("body", b""))
-                if received > limit:
-                    self.runtime.metrics.rejected.labels("body_too_large").inc()
-                    raise PayloadTooLarge("body_too_large", message)
-            return msg
-
-        async def tracking_send(msg: Message) -> None:
-            nonlocal response_started
-            if msg["type"] == "http.response.start":
-                response_started = True
-            await send(msg)
-
-        try:
-            await self.app(scope, counting_receive, tracking_send)
-        except PayloadTooLarge:  # raised by counting_receive where no handler caught it
-            if response_started:
-                raise
-            await send_error(send, 413, "body_too_large", message, [(b"connection", b"close")])
-
-
-class ConcurrencyLimit:
-    def __init__(self, app: ASGIApp, runtime: Runtime) -> None:
-        self.app, self.runtime = app, runtime
+        super().__init__(app, runtime)
         self.in_flight = 0  # one event loop: no lock needed
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http" or not scope["path"].startswith("/v1/"):
             await self.app(scope, receive, send)
             return
-        settings, metrics = self.runtime.settings, self.runtime.metrics
+        runtime = self.runtime
+        settings, metrics = runtime.settings, runtime.metrics
         if self.in_flight >= settings.max_concurrency:
             metrics.rejected.labels("overloaded").inc()
+            runtime.saturation.refused()
             await send_error(send, 503, "overloaded",
-                             f"more than {settings.max_concurrency} requests in flight; retry",
-                             [(b"retry-after", str(settings.retry_after_s).encode())])
+                             f"more than {settings.max_concurrency} requests being computed; "
+                             "retry", [(b"retry-after", str(settings.retry_after_s).encode())])
             return
         self.in_flight += 1
         metrics.in_flight.inc()
+        held = True
+
+        def free() -> None:
+            nonlocal held
+            if held:
+                held = False
+                self.in_flight -= 1
+                metrics.in_flight.dec()
+
+        async def send_freeing(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                free()  # computed: sending the answer holds no slot
+            await send(message)
+
         try:
-            await self.app(scope, receive, send)
+            # A batch's answer may be large and streamed: its slot is freed when it starts.
+            # Other answers are sent at once as the handler returns: no wrapper needed.
+            await self.app(scope, receive, send_freeing if scope["path"] == _BATCH else send)
         finally:
-            self.in_flight -= 1
-            metrics.in_flight.dec()
+            free()

@@ -153,9 +153,10 @@ def contact_json(contacts: Contacts, pairs: PairInputs, mode: str, model_version
     }
     if "manifold" in include:
         count = int(contacts.manifold_count[0])
+        depths = [d if d > 0.0 else 0.0 for d in contacts.manifold_depths[0, :count].tolist()]
         out["manifold"] = {"count": count,
                            "points": contacts.manifold_points[0, :count].tolist(),
-                           "depths": contacts.manifold_depths[0, :count].tolist()}
+                           "depths": depths}  # >= 0 like `depth` (round-off: -1e-17)
     if "paper_angles" in include:
         angles = paper_angles(contacts, pairs)[0]
         out["paper_angles"] = {k: (None if math.isnan(v) else v)
@@ -178,21 +179,24 @@ def check_finite(contacts: Contacts) -> np.ndarray:
     return np.flatnonzero(bad)
 
 
-def predict_checked(predictor: Predictor, pairs: PairInputs, batch: bool = False):
+def predict_checked(predictor: Predictor, pairs: PairInputs, batch: bool = False,
+                    offset: int = 0):
     """Run a predictor; input faults it finds become 422, a pair that a strict learned mode
     has no model for too (``unsupported_pair``, naming the rows of a ``batch``), non-finite
-    answers too (logged: inside the validated range they are a solver bug)."""
+    answers too (logged: inside the validated range they are a solver bug). ``offset``: the
+    batch row of ``pairs``' first row (a chunk of a batch), added to the rows reported."""
     try:
         contacts = predictor.predict(pairs)
     except (InvalidBoxError, InvalidRotationError) as exc:
-        raise InputError(exc.field, str(exc), exc.rows, type_="invalid_box") from exc
+        rows = None if exc.rows is None else np.asarray(exc.rows) + offset
+        raise InputError(exc.field, str(exc), rows, type_="invalid_box") from exc
     except UnsupportedPairError as exc:
-        raise UnsupportedPair(predictor.name, exc.rows, getattr(predictor, "covered", ()),
-                              batch) from exc
+        raise UnsupportedPair(predictor.name, np.asarray(exc.rows) + offset,
+                              getattr(predictor, "covered", ()), batch) from exc
     bad = check_finite(contacts)
     if bad.size:
         log.error("non-finite answer", extra={"predictor": predictor.name,
-                                              "rows": bad[:10].tolist()})
+                                              "rows": (bad[:10] + offset).tolist()})
         raise InputError("pairs", f"predictor {predictor.name!r} found no finite answer for "
-                         "these pairs", bad, type_="numeric_range")
+                         "these pairs", bad + offset, type_="numeric_range")
     return contacts

@@ -16,6 +16,12 @@ naming it, and the state that was serving keeps serving, untouched:
 
 Reloads are serialised by a lock: a second one waits for the first, then builds on the
 state that the first installed. Steps 1-3 fail with 422 (the bundle is at fault).
+
+Deadline: a reload has ``reload_timeout_s`` from its request. The route stops waiting then
+and answers 422 naming the step in progress; the worker thread, which cannot be stopped,
+checks the deadline before ``install`` and never installs a late bundle. A reload that waits
+for the lock gives up at the deadline too (409: another reload is still running), so that a
+reload stuck on a file can hold up the others only until their own deadlines.
 """
 from __future__ import annotations
 
@@ -38,13 +44,24 @@ class Reloader:
     def __init__(self, runtime: Runtime) -> None:
         self.runtime = runtime
         self._lock = threading.Lock()
+        self.step: str | None = None  # the step of the reload in progress, for a late answer
 
-    def reload(self, requested: str | None) -> dict:
-        """Reload from ``requested`` (None: the configured path); returns the report."""
-        with self._lock:
+    def _at(self, step: str) -> None:
+        self.step = step
+
+    def reload(self, requested: str | None, deadline: float | None = None) -> dict:
+        """Reload from ``requested`` (None: the configured path) before ``deadline`` (a
+        :func:`time.monotonic` time; None: none); returns the report."""
+        wait = -1 if deadline is None else max(0.0, deadline - time.monotonic())
+        if not self._lock.acquire(timeout=wait):
+            old = self.runtime.serving
+            raise ReloadFailed(409, "resolve", "another reload is still running (at step "
+                               f"{self.step!r}); retry later", requested,
+                               old.model_version if old is not None else None)
+        try:
             started = time.perf_counter()
             try:
-                report = self._reload(requested)
+                report = self._reload(requested, deadline)
             except ReloadFailed as exc:
                 self.runtime.metrics.reloads.labels("failed", exc.extra["step"]).inc()
                 log.warning("reload failed", extra={"step": exc.extra["step"],
@@ -55,11 +72,15 @@ class Reloader:
             log.info("reloaded", extra={k: report[k] for k in (
                 "model_version", "previous_model_version", "bundle", "seconds")})
             return report
+        finally:
+            self.step = None
+            self._lock.release()
 
-    def _reload(self, requested: str | None) -> dict:
+    def _reload(self, requested: str | None, deadline: float | None) -> dict:
         runtime = self.runtime
         old = runtime.serving
         serving = old.model_version if old is not None else None
+        self._at("resolve")
         if old is None or not runtime.warm or runtime.draining:
             raise ReloadFailed(409, "resolve", "the server is not ready: "
                                f"{runtime.not_ready_reason()}", requested, serving)
@@ -68,17 +89,20 @@ class Reloader:
         if path is None:
             raise ReloadFailed(409, "resolve", "no bundle path is configured and none was "
                                'given; send {"bundle": "<folder>"}', None, serving)
-        step = "read"
         try:
-            new = state_for(old.scene, path, runtime.settings, old.scene_note)
-            step = "warm_up"
+            new = state_for(old.scene, path, runtime.settings, old.scene_note, self._at)
+            self._at("warm_up")
             warm_up(new)
         except LoadError as exc:
             raise ReloadFailed(422, exc.step, str(exc), str(path), serving) from exc
         except Exception as exc:  # noqa: BLE001 - whatever breaks, the old state keeps serving
-            log.exception("reload: unexpected failure", extra={"step": step})
-            raise ReloadFailed(422, step, f"{type(exc).__name__}: {exc}", str(path),
-                               serving) from exc
+            log.exception("reload: unexpected failure", extra={"step": self.step})
+            raise ReloadFailed(422, self.step or "read", f"{type(exc).__name__}: {exc}",
+                               str(path), serving) from exc
+        self._at("install")
+        if deadline is not None and time.monotonic() > deadline:
+            raise ReloadFailed(422, "install", "the reload's deadline passed; the new bundle "
+                               "is not installed", str(path), serving)
         if runtime.draining:  # a shutdown began meanwhile: keep what is serving
             raise ReloadFailed(409, "install", "the server began shutting down", str(path),
                                serving)

@@ -9,12 +9,16 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+from concurrent.futures import ThreadPoolExecutor
 from importlib.metadata import PackageNotFoundError, version
 
+from service.budget import MemoryBudget
 from service.metrics import Metrics
 from service.predictors import ServingState, warm_up
+from service.saturation import Saturation
 from service.settings import Settings
 from service.state import build_state
+from service.uploads import Uploads
 
 log = logging.getLogger("impactnet.service")
 
@@ -41,6 +45,18 @@ class Runtime:
         self.load_error: str | None = None
         self.started_at = time.time()
         self.versions = package_versions()
+        self.saturation = Saturation(settings.saturation_ready_s)
+        self.budget = MemoryBudget(settings.memory_budget_bytes, settings.memory_wait_s,
+                                   settings.retry_after_s, on_refusal=self._memory_refused)
+        self.metrics.bind_budget(self.budget)
+        self.uploads = Uploads(settings.body_timeout_s)  # bodies being read (service.body)
+        # Batches are solved here, max_batch_workers at a time (threads start on demand).
+        self.batch_pool = ThreadPoolExecutor(settings.max_batch_workers,
+                                             thread_name_prefix="impactnet-batch")
+
+    def _memory_refused(self) -> None:
+        self.metrics.rejected.labels("memory_budget").inc()
+        self.saturation.refused()
 
     # ------------------------------------------------------------------ readiness
 

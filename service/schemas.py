@@ -93,10 +93,13 @@ class Feature(BaseModel):
 
 
 class Manifold(BaseModel):
+    """The incident face's clip against the reference face (edge-edge: the one point)."""
+
     count: int = Field(description="Number of contact points (0 when separated).")
     points: list[list[float]] = Field(description="(count, 3) world frame, metres, on the "
-                                      "mid-surface.")
-    depths: list[float] = Field(description="(count,) penetration of each point, metres.")
+                                      "mid-surface, the deepest first.")
+    depths: list[float] = Field(description="(count,) penetration of each point, metres, "
+                                ">= 0, the deepest first.")
 
 
 class PaperAngles(BaseModel):
@@ -110,7 +113,10 @@ class PaperAngles(BaseModel):
 
 class ContactResponse(BaseModel):
     colliding: bool
-    point: list[float] = Field(description="Impact point, world frame, metres (mid-surface).")
+    point: list[float] = Field(description="Impact point, world frame, metres: the centre of "
+                               "pressure of the contact region (pressure proportional to the "
+                               "local depth), on the mid-surface; it need not lie inside the "
+                               "hull of the manifold's points (GET /v1/models: conventions).")
     normal: list[float] = Field(description="Unit normal from A towards B (force on B along "
                                 "+normal).")
     depth: float = Field(description="Penetration along the normal, metres, >= 0.")
@@ -198,7 +204,7 @@ class ErrorItem(BaseModel):
 
 class ErrorResponse(BaseModel):
     error: str = Field(description="invalid_input, unsupported_pair, body_too_large, "
-                       "batch_too_large, mode_unavailable, not_ready, overloaded, "
+                       "batch_too_large, body_timeout, mode_unavailable, not_ready, overloaded, "
                        "unsupported_media_type, not_acceptable, not_found, "
                        "method_not_allowed, unauthorized, forbidden, reload_failed, "
                        "internal_error.")
@@ -242,8 +248,28 @@ class ModesInfo(BaseModel):
                           "exact without, unless configured.")
 
 
+class PointRule(BaseModel):
+    """The rule that defines `point`, and its version (bumped whenever the rule changes)."""
+
+    rule: str = Field(description='"centre-of-pressure": the centre of pressure of the contact '
+                      "region under a pressure proportional to the local penetration depth, on "
+                      "the mid-surface; it need not lie inside the hull of the manifold's "
+                      "points. Version 1 was the depth-weighted mean of the manifold.")
+    version: int
+
+
+class Conventions(BaseModel):
+    """What the numbers of an answer mean."""
+
+    point: PointRule
+    normal: str = Field(description="Direction of `normal`: from A towards B (the force on B "
+                        "acts along +normal).")
+    units: str = Field(description="Units of lengths and angles.")
+
+
 class ModelsResponse(BaseModel):
     model_version: str
+    conventions: Conventions
     modes: ModesInfo
     scene: dict | None = Field(description="name, hash, objects (name -> size), pairs; "
                                "null when no scene is loaded.")

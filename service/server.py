@@ -1,7 +1,9 @@
-"""uvicorn's server with a drain phase: readiness drops before the listening socket closes."""
+"""uvicorn's server with a drain phase: readiness drops before the listening socket closes, and
+uploads still in progress when it closes end at once instead of holding the exit."""
 from __future__ import annotations
 
 import signal
+import socket
 import threading
 from types import FrameType
 
@@ -40,3 +42,10 @@ class Server(uvicorn.Server):
 
     def _exit(self) -> None:
         self.should_exit = True
+
+    async def shutdown(self, sockets: list[socket.socket] | None = None) -> None:
+        """uvicorn's graceful shutdown, after ending every body still being uploaded (a
+        stalled client would otherwise hold the exit for ``graceful_timeout_s``)."""
+        self.runtime.begin_drain()
+        self.runtime.uploads.expire()
+        await super().shutdown(sockets)

@@ -11,7 +11,8 @@ from typing import Literal
 from pydantic import Field, SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-MiB = 1024 * 1024
+KiB = 1024
+MiB = 1024 * KiB
 
 
 class Settings(BaseSettings):
@@ -32,19 +33,55 @@ class Settings(BaseSettings):
     # Mode used when a request names none. None: "auto" when a bundle is loaded, "exact"
     # otherwise. A mode set here must be served (a learned one needs a bundle).
     default_mode: Literal["exact", "single", "committee", "auto"] | None = None
-    # Largest request body in bytes (413 beyond it, checked while the body streams in).
-    # 64 MiB holds a 100,000-pair batch as JSON (~40 MB) or as npz (~16 MB).
+    # Largest request body in bytes: of an npz batch, and the expanded size of its members
+    # (413 beyond it; checked against Content-Length before anything is read, and while the
+    # body streams in). The two limits below are lower for other bodies. 64 MiB holds a
+    # 100,000-pair batch as npz (~16 MB) with room to spare.
     max_body_bytes: int = Field(64 * MiB, ge=1024)
+    # Largest JSON batch body in bytes (413 beyond it). Chosen by measurement: a 100,000-pair
+    # batch with quaternions is 26.5 MB of JSON; its columns are parsed one at a time (4-13x
+    # a column's size in Python objects), so it needs ~50 MB of the memory budget. Send larger
+    # batches (matrices for 100,000 pairs: 52 MB) as npz.
+    max_json_body_bytes: int = Field(32 * MiB, ge=1024)
+    # Largest body of any other request (a single pair, an admin reload) in bytes (413
+    # beyond it). A pair is ~300 bytes; 64 KiB bounds the time that parsing and validating a
+    # hostile body holds the event loop (~8 ms for 6,000 unknown keys).
+    max_pair_body_bytes: int = Field(64 * KiB, ge=1024)
+    # Seconds within which a request body must have arrived in full; later: 408 and the
+    # connection is closed. 10 s lets a 64 MiB body through at 54 Mbit/s.
+    body_timeout_s: float = Field(10.0, gt=0)
+    # Seconds within which a large answer must have been taken by the client; a client that
+    # reads slower is disconnected, so that it cannot hold the answer's memory forever.
+    send_timeout_s: float = Field(60.0, gt=0)
+    # Memory budget of the process in bytes, on top of its footprint when ready: bodies being
+    # uploaded, decoded batch columns, the solver's working set and answers being encoded
+    # all count against it. A request that would exceed it waits up to `memory_wait_s`, then
+    # gets 503 `overloaded` (Retry-After); one that could never fit gets 413. Size it as the
+    # container's memory limit minus ~250 MiB (README, "Limits and failure modes").
+    memory_budget_bytes: int = Field(512 * MiB, ge=16 * MiB)
+    # Seconds a request waits for room in the memory budget before it gets 503.
+    memory_wait_s: float = Field(2.0, ge=0)
     # Largest number of pairs in one batch request (413 beyond it).
     max_batch_pairs: int = Field(100_000, ge=1)
-    # Largest number of /v1 requests in flight at once; more get 503 with Retry-After.
-    # Probes (/healthz, /readyz) and /metrics are never limited.
+    # Largest number of /v1 requests being computed at once (from the moment their body has
+    # arrived to the start of their answer); more get 503 with Retry-After. Requests still
+    # uploading their body, probes (/healthz, /readyz) and /metrics are not counted.
     max_concurrency: int = Field(64, ge=1)
+    # Batches solved at once, each in its own worker thread; more wait their turn (their
+    # memory is reserved when their turn comes). The solver is CPU-bound, so more threads
+    # than cores only add memory and hold the event loop back (the GIL).
+    max_batch_workers: int = Field(2, ge=1, le=64)
+    # Seconds that requests must have been refused as `overloaded` without a pause before
+    # /readyz reports the saturation (503 `saturated`), so that an orchestrator notices.
+    saturation_ready_s: float = Field(5.0, gt=0)
     # Seconds a client is told to wait (Retry-After) after a 503.
     retry_after_s: int = Field(1, ge=0)
     # Token of the admin endpoint (POST /v1/admin/reload, `Authorization: Bearer <token>`).
     # None (or "") disables it: the route does not exist (404). Environment only, never a flag.
     admin_token: SecretStr | None = None
+    # Seconds an admin reload may take (read, verify, smoke-test, warm up); later it fails
+    # with the step it was in, and the bundle it was loading is never installed.
+    reload_timeout_s: float = Field(120.0, gt=0)
     # Generated first-contact poses per bundle pair in the smoke test that a bundle passes
     # against the exact solver before it serves (at startup and on every reload).
     smoke_poses: int = Field(256, ge=8, le=100_000)
@@ -55,8 +92,11 @@ class Settings(BaseSettings):
     # Seconds uvicorn waits for in-flight requests on SIGTERM before it closes them.
     graceful_timeout_s: float = Field(30.0, gt=0)
     # Seconds between SIGTERM and closing the listening socket, while /readyz already answers
-    # 503, so that a load balancer takes the replica out first. 0: close at once.
-    drain_delay_s: float = Field(0.0, ge=0)
+    # 503 and every answer says `Connection: close`, so that a load balancer takes the
+    # replica out and keep-alive clients reconnect elsewhere before the socket closes. 0:
+    # close at once (idle keep-alive connections are then cut). Set it to at least the
+    # balancer's readiness-probe interval.
+    drain_delay_s: float = Field(1.0, ge=0)
     # Seconds an idle keep-alive connection stays open (simulators keep one connection).
     keepalive_timeout_s: float = Field(30.0, gt=0)
     # Load the scene / bundle and warm up in the background, so /healthz answers at once and

@@ -8,8 +8,10 @@ A state is built in named steps, so that a failed start or admin reload says whi
 2. ``resolve``: the bundle folder: ``settings.bundle`` if set (``"none"`` or ``""``: no
    bundle), else the scene's shipped bundle ``models/bundles/<scene name>`` when that folder
    exists, else no bundle (mode ``exact`` only).
-3. ``read``: :func:`models.bundles.read_bundle` verifies the manifest, the file list, every
-   file's size and SHA-256, the tensors and the pairs.
+3. ``read``: :func:`service.bundle_guard.check_bundle_files` first (regular files within size
+   caps, so that no read can block or run without end), then
+   :func:`models.bundles.read_bundle` verifies the manifest, the file list, every file's size
+   and SHA-256, the tensors and the pairs.
 4. ``scene_hash``: the manifest's scene hash must equal the served scene's (a bundle trained
    for other bodies, depth range or accuracy is refused, never half-used).
 5. ``build``: the learned modes' predictors (:func:`models.load_predictor` with the bundle
@@ -30,6 +32,7 @@ from models.bundle_store import resolve_bundle
 from models.bundles import Bundle, BundleError, read_bundle
 from models.pair_dispatch import UNSUPPORTED, PairTable
 from models.predictors import DEFAULT_BUNDLE, load_predictor
+from service.bundle_guard import check_bundle_files
 from service.predictors import (
     LEARNED_MODES,
     NO_BUNDLE_REASON,
@@ -77,6 +80,7 @@ def read_for_scene(path: Path, scene: SceneView) -> Bundle:
     if not path.is_dir():
         raise LoadError("read", f"bundle {str(path)!r}: no such folder", path)
     try:
+        check_bundle_files(path)  # regular files within their caps: nothing can block
         bundle = read_bundle(resolve_bundle(path))  # a store reads its current version
     except (BundleError, OSError) as exc:
         raise LoadError("read", f"bundle {str(path)!r} refused: {exc}", path) from exc
@@ -152,9 +156,14 @@ def default_mode(setting: str | None, predictors: dict, unavailable: dict) -> st
     return mode
 
 
+def _no_report(step: str) -> None:
+    """The default ``on_step`` of :func:`state_for`: nobody is told."""
+
+
 def state_for(scene: SceneView, path: Path | None, settings: Settings,
-              scene_note: str | None = None) -> ServingState:
-    """Steps ``read`` to ``smoke`` for ``scene`` and the bundle at ``path`` (None: none)."""
+              scene_note: str | None = None, on_step=_no_report) -> ServingState:
+    """Steps ``read`` to ``smoke`` for ``scene`` and the bundle at ``path`` (None: none);
+    ``on_step(name)`` is called as each step begins (a reload reports where it stands)."""
     predictors: dict = {"exact": ExactPredictor()}
     if path is None:
         unavailable = {m: NO_BUNDLE_REASON for m in LEARNED_MODES}
@@ -162,10 +171,13 @@ def state_for(scene: SceneView, path: Path | None, settings: Settings,
         return ServingState(scene=scene, predictors=predictors, unavailable=unavailable,
                             model_version=exact_model_version(scene), default_mode=mode,
                             scene_note=scene_note)
+    on_step("read")
     bundle = read_for_scene(path, scene)
+    on_step("build")
     learned, unavailable = learned_predictors(bundle)
     predictors.update(learned)
     mode = default_mode(settings.default_mode, predictors, unavailable)
+    on_step("smoke")
     try:
         report = smoke_test(learned, bundle, settings.smoke_poses)
     except SmokeTestFailed as exc:

@@ -7,17 +7,19 @@ compared in constant time.
 """
 from __future__ import annotations
 
+import asyncio
 import hmac
+import time
 from typing import Annotated
 
 import orjson
 from fastapi import APIRouter, Depends, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
-from starlette.concurrency import run_in_threadpool
 from starlette.responses import Response
 
 from service.deps import RuntimeDep
-from service.errors import ServiceError, validated_json
+from service.errors import ReloadFailed, ServiceError
+from service.json_keys import validated_unique
 from service.routers import ERRORS
 from service.schemas import ErrorResponse, ReloadRequest, ReloadResponse
 
@@ -28,6 +30,9 @@ bearer = HTTPBearer(auto_error=False, scheme_name="AdminToken",
 _REQUEST_BODY = {"required": False, "content": {
     "application/json": {"schema": {"$ref": "#/components/schemas/ReloadRequest"}}}}
 _CHALLENGE = {"WWW-Authenticate": 'Bearer realm="impactnet-admin"'}
+#: Seconds the route waits beyond the reload's own deadline, so that a reload that gives up
+#: by itself (the lock, the install check) answers with its own reason.
+ANSWER_GRACE_S = 1.0
 
 
 def check_token(credentials: HTTPAuthorizationCredentials | None, token: str) -> None:
@@ -43,7 +48,7 @@ def parse_body(raw: bytes, content_type: str | None) -> ReloadRequest:
     """An empty body, or a JSON object ``{"bundle": "<folder>"}`` (both keys optional)."""
     if not raw.strip():
         return ReloadRequest()
-    return validated_json(ReloadRequest, raw, content_type)
+    return validated_unique(ReloadRequest, raw, content_type)
 
 
 @router.post(
@@ -56,8 +61,9 @@ def parse_body(raw: bytes, content_type: str | None) -> ReloadRequest:
                      "or no bundle path configured and none given (`reload_failed`)."},
                415: {"description": "Content-Type is not JSON."},
                422: {"model": ErrorResponse, "description": "Invalid body, or the bundle "
-                     "failed a step (`reload_failed`, `step`); the old bundle keeps "
-                     "serving."},
+                     "failed a step (`reload_failed`, `step`: also when a file is not a "
+                     "regular file or above its size cap, and when the reload passed "
+                     "`reload_timeout_s`); the old bundle keeps serving."},
                413: ERRORS[413], 503: ERRORS[503]})
 async def reload(
     request: Request, runtime: RuntimeDep,
@@ -69,6 +75,16 @@ async def reload(
     the step that failed. Reloads are serialised."""
     check_token(credentials, runtime.settings.admin_token.get_secret_value())
     body = parse_body(await request.body(), request.headers.get("content-type"))
-    report = await run_in_threadpool(request.app.state.reloader.reload, body.bundle)
+    reloader = request.app.state.reloader
+    timeout = runtime.settings.reload_timeout_s
+    try:  # a thread of its own: one stuck on a file is abandoned, never awaited
+        report = await asyncio.wait_for(asyncio.to_thread(
+            reloader.reload, body.bundle, time.monotonic() + timeout),
+            timeout + ANSWER_GRACE_S)
+    except TimeoutError:
+        serving = runtime.serving
+        raise ReloadFailed(422, reloader.step or "read", f"the reload did not finish within "
+                           f"{timeout:g} s (reload_timeout_s); the new bundle is not installed",
+                           body.bundle, serving.model_version if serving else None) from None
     return Response(orjson.dumps(report), media_type="application/json",
                     headers={"X-Model-Version": report["model_version"]})

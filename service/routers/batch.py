@@ -1,18 +1,25 @@
 """POST /v1/contact/batch: N pairs, columnar JSON or npz in and out."""
 from __future__ import annotations
 
+import asyncio
+import contextvars
 from typing import Annotated
 
 import numpy as np
 from fastapi import APIRouter, Query, Request
 from pydantic import ValidationError
-from starlette.concurrency import run_in_threadpool
 from starlette.responses import Response
 
 from service import columns as col
+from service.answer_encode import STREAM_ROWS, StreamedJSON, encode_json, encode_npz, json_pieces
+from service.batch_json import parse_json_batch
+from service.batch_solve import PAIR_INPUT_BYTES, solve_batch
+from service.body import LEASE
+from service.budget import Lease
 from service.deps import RuntimeDep, ServingDep
 from service.errors import InputError, ServiceError, validation_items
-from service.pairs import PAPER_ANGLES_AVAILABLE, predict_checked
+from service.npz import parse_npz
+from service.pairs import PAPER_ANGLES_AVAILABLE
 from service.predictors import ServingState
 from service.routers import ERRORS
 from service.runtime import Runtime
@@ -72,28 +79,57 @@ def _options(query: dict, body: dict) -> BatchOptions:
         raise InputError(first["field"], first["reason"], type_=first["type"]) from exc
 
 
+def _rows(columns: dict) -> int:
+    """Pairs of a batch: the longest per-pair column (1 if every column is one value)."""
+    rows = 1
+    for name, value in columns.items():
+        if name not in col.COLUMNS or not isinstance(value, np.ndarray):
+            continue  # refused by the validation that follows
+        tail = col.tail_of(name) or ()
+        if value.ndim == len(tail) + 1:
+            rows = max(rows, len(value))
+    return rows
+
+
 def _score(body: bytes, binary_in: bool, answer_type: str, query: dict, state: ServingState,
-           runtime: Runtime) -> tuple[bytes, int]:
+           runtime: Runtime, lease: Lease):
+    """The answer: npz or small JSON as bytes, large JSON as the arrays to stream. Runs in a
+    batch worker thread; every step reserves its memory in ``lease`` first."""
     settings = runtime.settings
     if binary_in:
-        columns, body_options = col.parse_npz(body, settings.max_body_bytes), {}
+        columns, body_options = parse_npz(body, settings.max_body_bytes,
+                                          settings.max_batch_pairs, lease), {}
     else:
-        columns, body_options = col.parse_json(body)
+        columns, body_options = parse_json_batch(body, settings.max_batch_pairs, lease)
     options = _options(query, body_options)
     mode = options.mode or state.default_mode
     predictor = state.predictor(mode)
     if "paper_angles" in options.include and not PAPER_ANGLES_AVAILABLE:
         raise InputError("include", "paper_angles is not available in this build")
+    lease.reserve(min(_rows(columns), settings.max_batch_pairs) * PAIR_INPUT_BYTES,
+                  "validating the batch")
     pairs = col.batch_pairs(columns, state.scene, options.euler_convention,
                             settings.max_batch_pairs)
-    contacts = predict_checked(predictor, pairs, batch=True)
-    arrays = col.answer_arrays(contacts, pairs, options.include)
+    del columns
+    arrays = solve_batch(predictor, pairs, options.include, lease)
     counts = np.bincount(arrays["predictor_code"], minlength=len(arrays["predictor_names"]))
     runtime.metrics.record_predictions(mode, dict(zip(arrays["predictor_names"].tolist(),
                                                       counts.tolist(), strict=True)))
     runtime.metrics.batch_size.observe(len(pairs))
-    encode = col.encode_npz if answer_type == col.NPZ else col.encode_json
-    return encode(arrays, mode, state.model_version), len(pairs)
+    if answer_type == col.NPZ:
+        lease.reserve(2 * sum(a.nbytes for a in arrays.values()), "encoding the npz answer")
+        return encode_npz(arrays, mode, state.model_version), mode
+    if len(pairs) <= STREAM_ROWS:
+        return encode_json(arrays, mode, state.model_version), mode
+    return arrays, mode
+
+
+async def _in_batch_worker(runtime: Runtime, *args):
+    """``_score(*args)`` in the runtime's batch pool (``max_batch_workers`` at a time), with
+    the request's context (its request id) carried over."""
+    context = contextvars.copy_context()
+    loop = asyncio.get_running_loop()
+    return await loop.run_in_executor(runtime.batch_pool, context.run, _score, *args)
 
 
 @router.post(
@@ -105,7 +141,12 @@ def _score(body: bytes, binary_in: bool, answer_type: str, query: dict, state: S
         415: {"description": "Content-Type is neither JSON nor npz."}, **ERRORS},
     description="Columnar batch: every column holds one value (broadcast) or an array of N; "
     "the answer has one entry per pair in every column. Validation, scoring and encoding are "
-    "vectorised (no Python loop over pairs) and run in a worker thread.\n" + LAYOUT)
+    "vectorised (no Python loop over pairs) and run in a worker thread, `max_batch_workers` "
+    "batches at a time. Limits: JSON bodies up to `max_json_body_bytes` (32 MiB: 100,000 "
+    "pairs with quaternions), npz up to `max_body_bytes`, `max_batch_pairs` pairs; a batch "
+    "reserves its memory in the server's budget first (503 `overloaded` with Retry-After when "
+    "there is no room now, 413 when it could never fit). A JSON object that repeats a key is "
+    "422. Large JSON answers are streamed (chunked).\n" + LAYOUT)
 async def batch(
     request: Request, runtime: RuntimeDep, state: ServingDep,
     mode: Annotated[Mode | None, Query(description="Instead of the body's `mode`.")] = None,
@@ -117,9 +158,13 @@ async def batch(
         raise ServiceError(415, "unsupported_media_type", f"Content-Type {content_type!r}; "
                            f"send {col.JSON} or {col.NPZ}")
     answer_type = _response_type(request.headers.get("accept"))
-    body = await request.body()  # streamed in under the BodyLimit middleware
+    body = await request.body()  # read in full by the BodyReader middleware
+    lease = request.scope[LEASE]  # released by the BodyReader once the answer is sent
     query = {"mode": mode, "include": include, "euler_convention": euler_convention}
-    payload, _ = await run_in_threadpool(_score, body, content_type == col.NPZ, answer_type,
-                                         query, state, runtime)
-    return Response(payload, media_type=answer_type,
-                    headers={"X-Model-Version": state.model_version})
+    answer, mode_used = await _in_batch_worker(runtime, body, content_type == col.NPZ,
+                                               answer_type, query, state, runtime, lease)
+    headers = {"X-Model-Version": state.model_version}
+    if isinstance(answer, bytes):
+        return Response(answer, media_type=answer_type, headers=headers)
+    return StreamedJSON(json_pieces(answer, mode_used, state.model_version), headers,
+                        runtime.settings.send_timeout_s)

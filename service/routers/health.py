@@ -20,15 +20,18 @@ async def healthz() -> HealthResponse:
 @router.get("/readyz", response_model=None, summary="Readiness",
             responses={200: {"model": ReadyResponse},
                        503: {"model": ReadyResponse, "description": "Loading, load failed, "
-                             "or draining for shutdown (Retry-After)."}})
+                             "draining for shutdown, or saturated (Retry-After)."}})
 async def readyz(runtime: RuntimeDep) -> Response:
-    """200 once the scene and predictors are loaded and warmed up; 503 before that and from
-    the moment a shutdown begins."""
+    """200 once the scene and predictors are loaded and warmed up; 503 before that, from the
+    moment a shutdown begins, and while requests have been refused as overloaded for
+    `saturation_ready_s` without a pause (`saturated`: an orchestrator should route
+    elsewhere or add replicas)."""
     state = runtime.serving
     version = state.model_version if state is not None else None
-    if runtime.ready:
+    reason = runtime.not_ready_reason() if not runtime.ready else runtime.saturation.reason()
+    if reason is None:
         return Response(orjson.dumps({"ready": True, "model_version": version}),
                         media_type="application/json")
-    body = {"ready": False, "reason": runtime.not_ready_reason(), "model_version": version}
+    body = {"ready": False, "reason": reason, "model_version": version}
     return Response(orjson.dumps(body), status_code=503, media_type="application/json",
                     headers={"Retry-After": str(runtime.settings.retry_after_s)})

@@ -262,3 +262,50 @@ def test_json_floats_round_trip_exactly(client):
     binary = load_npz(client.post(URL, json=as_json(columns), headers={"Accept": NPZ}).content)
     assert np.array_equal(np.asarray(text["point"]), binary["point"])
     assert np.array_equal(np.asarray(text["normal"]), binary["normal"])
+
+
+def test_a_streamed_json_answer_equals_the_npz_answer(client):
+    """More than STREAM_ROWS pairs: the JSON answer is streamed in pieces, solved in chunks of
+    CHUNK_ROWS, and carries the same values as the npz answer and the exact solver."""
+    from service.answer_encode import STREAM_ROWS
+    from service.batch_solve import CHUNK_ROWS
+
+    n = CHUNK_ROWS + STREAM_ROWS + 17
+    columns = poses(n, seed=12)
+    include = "?include=manifold&include=paper_angles"
+    as_text = client.post(URL + include, content=npz_bytes(columns),
+                          headers={"Content-Type": NPZ, "Accept": "application/json"})
+    as_npz = client.post(URL + include, content=npz_bytes(columns),
+                         headers={"Content-Type": NPZ, "Accept": NPZ})
+    assert as_text.status_code == 200 and as_npz.status_code == 200
+    text, binary = orjson.loads(as_text.content), load_npz(as_npz.content)
+    assert text["n"] == n
+    for key in ("point", "normal", "depth", "confidence", "colliding", "feature_a",
+                "feature_b", "axis", "manifold_count", "manifold_points", "manifold_depths"):
+        np.testing.assert_array_equal(np.asarray(text[key]), binary[key], err_msg=key)
+    np.testing.assert_array_equal(np.array(text["paper_angles"], dtype=np.float64),
+                                  binary["paper_angles"])
+    assert binary["contact_type_names"][binary["contact_type_code"]].tolist() == \
+        text["contact_type"]
+    expected = box_box(*(columns[k] for k in ("a_size", "a_position", "a_quaternion",
+                                              "b_size", "b_position", "b_quaternion")))
+    np.testing.assert_allclose(binary["point"], expected.point, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(binary["colliding"], expected.colliding)
+
+
+def test_json_pieces_are_the_bytes_of_one_orjson_call():
+    from service.answer_encode import CONTACT_NAMES, STREAM_ROWS, encode_json
+
+    rng = np.random.default_rng(0)
+    n = 2 * STREAM_ROWS + 5
+    arrays = {"colliding": rng.random(n) < 0.5, "point": rng.normal(size=(n, 3)),
+              "depth": rng.random(n), "contact_type_code": rng.integers(0, 7, n).astype(np.int8),
+              "predictor_code": rng.integers(0, 2, n).astype(np.int8),
+              "predictor_names": np.array(["committee", "exact"]),
+              "paper_angles": np.where(rng.random((n, 4)) < 0.1, np.nan, rng.normal(size=(n, 4)))}
+    whole = {"n": n, "mode": "auto", "model_version": "v1",
+             "predictor": arrays["predictor_names"][arrays["predictor_code"]].tolist(),
+             "contact_type": CONTACT_NAMES[arrays["contact_type_code"]].tolist(),
+             **{k: arrays[k] for k in ("colliding", "point", "depth", "paper_angles")}}
+    assert encode_json(arrays, "auto", "v1") == orjson.dumps(
+        whole, option=orjson.OPT_SERIALIZE_NUMPY)

@@ -106,18 +106,26 @@ def _swap_predictor(app, predictor) -> None:
     runtime.install(dataclasses.replace(runtime.serving, predictors={"exact": predictor}))
 
 
+#: Two cube pairs: a batch, so that its predictor runs in a worker thread, not on the loop.
+SMALL_BATCH = {"a_size": [2, 2, 2], "a_position": [[0, 0, 0]] * 2, "a_quaternion": [1, 0, 0, 0],
+               "b_size": [2, 2, 2], "b_position": [0, 0, 1.9], "b_quaternion": [1, 0, 0, 0]}
+
+
+async def hold_a_slot(app, client) -> tuple[_Gate, asyncio.Task]:
+    """A batch that holds a compute slot until ``gate.release`` is set; its task."""
+    gate = _Gate()
+    _swap_predictor(app, gate)
+    held = asyncio.create_task(client.post("/v1/contact/batch", json=SMALL_BATCH))
+    await asyncio.to_thread(gate.started.wait, 10)
+    return gate, held
+
+
 def test_concurrency_limit_is_503_with_retry_after():
     async def main():
         app = await _ready_app(max_concurrency=1, retry_after_s=2)
-        gate = _Gate()
-        _swap_predictor(app, gate)
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
-            batch = {"a_size": [2, 2, 2], "a_position": [[0, 0, 0]] * 2,
-                     "a_quaternion": [1, 0, 0, 0], "b_size": [2, 2, 2],
-                     "b_position": [0, 0, 1.9], "b_quaternion": [1, 0, 0, 0]}
-            first = asyncio.create_task(client.post("/v1/contact/batch", json=batch))
-            await asyncio.to_thread(gate.started.wait, 10)
+            gate, first = await hold_a_slot(app, client)
             second = await client.post("/v1/contact", json=PAIR)
             probes = [await client.get(p) for p in ("/healthz", "/readyz", "/metrics")]
             gate.release.set()

@@ -23,6 +23,8 @@ def test_models_describes_scene_modes_versions(client):
         f"{scene.hash()[:12]}"
     assert body["contact_types"][0] == "none" and len(body["feature_names"]) == 27
     assert body["limits"]["max_batch_pairs"] == 100_000
+    assert body["limits"]["max_pair_body_bytes"] == 64 * 1024
+    assert body["limits"]["max_json_body_bytes"] == 32 * 1024 * 1024
     assert body["includes"] == ["manifold", "paper_angles"]
 
 
@@ -85,3 +87,19 @@ def test_docs_and_openapi(client):
     assert "Binary layout" in batch["description"]
     body = schema["components"]["schemas"]["Body"]
     assert body["additionalProperties"] is False
+
+
+def test_models_names_the_conventions_and_the_point_rule(client):
+    from models.contacts import POINT_RULE, POINT_RULE_VERSION
+
+    response = client.get("/v1/models")
+    assert response.status_code == 200
+    conventions = response.json()["conventions"]
+    assert conventions == {"point": {"rule": POINT_RULE, "version": POINT_RULE_VERSION},
+                           "normal": "from A towards B", "units": "metres, radians"}
+    assert conventions["point"] == {"rule": "centre-of-pressure", "version": 2}
+    schema = client.get("/openapi.json").json()["components"]["schemas"]
+    assert schema["ModelsResponse"]["properties"]["conventions"]["$ref"].endswith("Conventions")
+    assert "centre of pressure" in schema["ContactResponse"]["properties"]["point"][
+        "description"]
+    assert "deepest first" in schema["Manifold"]["properties"]["depths"]["description"]

@@ -20,6 +20,9 @@ def test_safe_defaults():
     assert s.host == "127.0.0.1" and s.port == 8000 and s.scene == "quay_crane"
     assert s.admin_token is None and s.bundle is None and s.default_mode is None
     assert s.max_body_bytes == 64 * 1024 * 1024 and s.max_batch_pairs == 100_000
+    assert s.max_json_body_bytes == 32 * 1024 * 1024 and s.max_pair_body_bytes == 64 * 1024
+    assert s.body_timeout_s == 10.0 and s.memory_budget_bytes == 512 * 1024 * 1024
+    assert s.drain_delay_s == 1.0  # readiness 503 before the socket closes (issue 23)
 
 
 def test_environment_and_flags(monkeypatch):

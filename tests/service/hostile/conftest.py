@@ -1,0 +1,154 @@
+"""Helpers of the hostile-client suite: raw loopback sockets, a /healthz sampler, the server's
+memory as the kernel reports it. Every test talks to 127.0.0.1 only, with bounded traffic and
+time."""
+from __future__ import annotations
+
+import contextlib
+import http.client
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+import pytest
+
+from tests.service.conftest import ServerProcess
+
+#: /healthz latency goal while hostile requests are refused or served (ms, issue 23).
+HEALTHZ_P99_MS = 100.0
+#: Seconds between two /healthz probes of the sampler: ~50 samples a second.
+PROBE_INTERVAL_S = 0.02
+
+
+def start_server(*args: str, env: dict | None = None) -> ServerProcess:
+    """A ready server (``python -m service``) on a free loopback port, mode exact."""
+    proc = ServerProcess(args=["--no-access-log", *args], env=env)
+    try:
+        proc.wait_ready()
+    except Exception:
+        proc.cleanup()
+        raise
+    return proc
+
+
+@pytest.fixture
+def server_factory():
+    """``server_factory(*args, env=...)``: servers stopped after the test."""
+    started: list[ServerProcess] = []
+
+    def make(*args: str, env: dict | None = None) -> ServerProcess:
+        started.append(start_server(*args, env=env))
+        return started[-1]
+
+    yield make
+    for proc in started:
+        proc.cleanup()
+
+
+def stalled_sockets(port: int, count: int, path: str = "/v1/contact",
+                    declared: int = 1000) -> list[socket.socket]:
+    """``count`` connections that each send the headers and one byte of a ``declared``-byte
+    body, then nothing more."""
+    out = []
+    for _ in range(count):
+        sock = socket.create_connection(("127.0.0.1", port), timeout=5)
+        sock.sendall(f"POST {path} HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                     f"Content-Length: {declared}\r\n\r\n{{".encode())
+        out.append(sock)
+    return out
+
+
+def read_reply(sock: socket.socket, timeout: float) -> bytes:
+    """Everything the server sends until it closes the connection (or ``timeout``)."""
+    sock.settimeout(timeout)
+    reply = b""
+    with contextlib.suppress(OSError):
+        while chunk := sock.recv(65536):
+            reply += chunk
+    return reply
+
+
+def post(port: int, path: str, body: bytes, headers: dict | None = None,
+         timeout: float = 30.0) -> tuple[int, dict, bytes]:
+    """One POST on a fresh connection: (status, lower-case headers, body)."""
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout)
+    try:
+        conn.request("POST", path, body, {"Content-Type": "application/json", **(headers or {})})
+        response = conn.getresponse()
+        return (response.status, {k.lower(): v for k, v in response.getheaders()},
+                response.read())
+    finally:
+        conn.close()
+
+
+_PROBE_SCRIPT = """
+import http.client, sys, time
+port, interval, out = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
+conn = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+samples = []
+try:
+    while True:
+        started = time.perf_counter()
+        try:
+            conn.request("GET", "/healthz")
+            response = conn.getresponse()
+            response.read()
+            ok = response.status == 200
+        except OSError:
+            ok = False
+            conn.close()
+            conn = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+        ms = (time.perf_counter() - started) * 1e3 if ok else 10000.0
+        samples.append(f"{time.monotonic():.4f} {ms:.3f}")
+        time.sleep(interval)
+except KeyboardInterrupt:
+    pass
+finally:
+    with open(out, "w") as f:
+        f.write("\\n".join(samples))
+"""
+
+
+class HealthSampler:
+    """Probes GET /healthz every :data:`PROBE_INTERVAL_S` on one keep-alive connection from a
+    process of its own (so that the test's own threads do not delay the probes), and keeps
+    each probe's latency in ms (``ms``) and its :func:`time.monotonic` time (``at``); a probe
+    that fails counts as 10 s."""
+
+    def __init__(self, port: int) -> None:
+        self.port, self.ms, self.at = port, [], []
+        fd, self._out = tempfile.mkstemp(prefix="impactnet-healthz-", suffix=".txt")
+        os.close(fd)
+
+    def __enter__(self) -> HealthSampler:
+        self._proc = subprocess.Popen([sys.executable, "-c", _PROBE_SCRIPT, str(self.port),
+                                       str(PROBE_INTERVAL_S), self._out])
+        time.sleep(0.3)  # the interpreter starts
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._proc.send_signal(signal.SIGINT)
+        self._proc.wait(15)
+        with open(self._out) as f:
+            pairs = [line.split() for line in f.read().splitlines() if line.strip()]
+        os.unlink(self._out)
+        self.at = [float(a) for a, _ in pairs]
+        self.ms = [float(m) for _, m in pairs]
+
+    def p99(self) -> float:
+        return float(np.percentile(self.ms, 99))
+
+
+def memory_kib(pid: int) -> dict[str, int]:
+    """VmRSS (resident now) and VmHWM (peak resident) of a process, KiB."""
+    out = {}
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            key, _, value = line.partition(":")
+            if key in ("VmRSS", "VmHWM"):
+                out[key] = int(value.split()[0])
+    return out
