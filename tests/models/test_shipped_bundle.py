@@ -28,9 +28,12 @@ SEED = 987_654
 #: Floors on the expert-answered rows (point errors in % of the smaller body's shortest edge).
 EXPERT_POINT_MEDIAN_PCT = 7.0
 EXPERT_POINT_P90_PCT = 75.0
-#: Floors of auto over all rows (the scene's tolerance is 2 % and 1 degree).
+#: Floors of auto over all rows (the scene's tolerance is 2 % and 1 degree). Since point rule 2
+#: (the centre of pressure) the experts answer every tilted face contact and auto falls back on
+#: 39-54 % of the rows per pair (docs/evaluation/report.md; 8.7 % under rule 1): the floor is
+#: that measurement plus sampling room, so that a bundle that falls back on everything fails.
 AUTO_POINT_P99_PCT = 4.0
-AUTO_FALLBACK_MAX = 0.2
+AUTO_FALLBACK_MAX = 0.65
 #: Rows per pair compared one by one against their batch answer.
 ONE_BY_ONE_ROWS = 150
 #: Agreement of the N = 1 and batch answers, as a share of the scene's point tolerance: the
