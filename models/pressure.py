@@ -78,19 +78,27 @@ from models.sat import sign_nonnegative
 #: any depth a simulator resolves, and must exceed :data:`models.sat.CONTACT_TOL_REL` so that a
 #: colliding pair has a non-empty region.
 PRESSURE_FLOOR_REL = 1e-9
+#: A face contact's depth is the SAT overlap along its normal unless the region's deepest point
+#: is shallower than that by more than this (x pair scale, metres): the incident box's deepest
+#: vertex then hangs beyond the reference face, and the region's depth is the penetration.
+#: Above the rounding of ``(d + tau) - tau`` (1e-16 of the scale), so that where the two agree
+#: the depth stays the SAT overlap to the last bit (the region labeller's).
+REGION_DEPTH_TOL_REL = 1e-9
 #: Rows of a polygon array: (3, K, C) holds u, w (metres, reference frame) and the pressure p.
 U, W, P = range(3)
 #: The in-plane axes p = k + 1 and q = k + 2 (mod 3) of incident face k.
 FACE_P, FACE_Q = [1, 2, 0], [2, 0, 1]
 
 
-def apex_edges(frame, tau):
+def apex_edges(frame, height, tau):
     """The incident box's deepest vertex and its three edges, in the reference frame.
 
     Parameters
     ----------
     frame : models.manifold.ReferenceFrame
         m face-axis pairs seen from their reference boxes.
+    height : ndarray, shape (m,)
+        Reference half-extent along the reference axis (metres).
     tau : ndarray, shape (m,)
         Pressure floor (metres).
 
@@ -107,7 +115,6 @@ def apex_edges(frame, tau):
     """
     t_ref = frame.centre()
     rot = frame.rotation(0)  # (3 c, 3 j, m): incident axis j along (axis, u, w)
-    height = frame.half_ref()[0]
     ref_sign = sign_nonnegative(t_ref[0])
     towards = (-sign_nonnegative(ref_sign * rot[0]) * frame.half_inc(0)) * rot  # (3 c, 3 j, m)
     apex = np.empty((3, len(ref_sign)))
@@ -122,7 +129,7 @@ def _fraction(level, drop):
     and a drop ``drop >= 0`` along it: 0 if ``level < 0``, 1 if ``level >= drop``, else
     ``level / drop``. Shapes broadcast to (3, m)."""
     inside = level >= 0.0
-    out = np.where(inside, 1.0, 0.0) * np.ones_like(drop)
+    out = np.broadcast_to(inside, drop.shape).astype(np.float64)
     return np.divide(level, drop, out=out, where=inside & (level < drop))
 
 
@@ -197,158 +204,129 @@ def _cut_tables(k):
 
     The rule (the scalar path's :func:`models.pressure_one.clip`): the entry edge is the first
     edge (i, i + 1) from outside to inside, the walk is the K - 1 slots after it, the exit edge
-    the first edge of the walk from inside to outside. Returns ``entry (2^K,)``, ``leave
-    (2^K,)``, ``walk (K - 1, 2^K)`` slot ids and ``walk_inside (K - 1, 2^K)``.
+    the first edge of the walk from inside to outside. Returns ``ends (2 start/end, 2
+    entry/exit, 2^K)``, ``walk (K - 1, 2^K)`` slot ids and ``walk_inside (K - 1, 2^K)``.
     """
     patterns = 1 << k
-    entry, leave = np.zeros(patterns, np.intp), np.zeros(patterns, np.intp)
+    ends = np.zeros((2, 2, patterns), np.intp)
     walk, walk_inside = np.zeros((k - 1, patterns), np.intp), np.zeros((k - 1, patterns), bool)
     for pattern in range(1, patterns - 1):
         inside = [bool(pattern >> i & 1) for i in range(k)]
         first = next(i for i in range(k) if not inside[i] and inside[(i + 1) % k])
         slots = [(first + j) % k for j in range(1, k)]
-        entry[pattern] = first
-        leave[pattern] = next((x for x in slots if inside[x] and not inside[(x + 1) % k]),
-                              slots[0])
+        leave = next(x for x in slots if inside[x] and not inside[(x + 1) % k])
+        ends[:, :, pattern] = [[first, leave], [(first + 1) % k, (leave + 1) % k]]
         walk[:, pattern] = slots
         walk_inside[:, pattern] = [inside[x] for x in slots]
-    return entry, leave, walk, walk_inside
+    return ends, walk, walk_inside
 
 
 #: Slots of a depth-clipped face with its apex (:func:`depth_slots`).
 FACE_SLOTS = 5
+#: The side planes in the order they clip: (coordinate, bound index (0 half_u, 1 half_w),
+#: upper side).
+_SIDE_PLANES = ((U, 0, True), (U, 0, False), (W, 1, True), (W, 1, False))
 #: :func:`_cut_tables` for the slot counts a side plane meets (5 after the depth clip, one
-#: more per side plane that cuts).
-_CUT_TABLES = {k: _cut_tables(k) for k in range(FACE_SLOTS, FACE_SLOTS + 4)}
-
-
-def _crossings(poly, s, start, end):
-    """The crossings of the plane s = 0 on the edges from slot ``start`` to slot ``end`` (C,).
-
-    ``lam = s_a / (s_a - s_b)`` clamped to [0, 1] (0 where the two are equal), then
-    ``a + lam (b - a)`` for u, w and p; shape (3, C).
-    """
-    c = s.shape[1]
-    col = np.arange(c)
-    a, b = start * c + col, end * c + col
-    s_a, s_b = np.take(s, a), np.take(s, b)
-    denominator = s_a - s_b
-    lam = s_a / np.where(denominator != 0.0, denominator, 1.0)
-    lam = np.minimum(np.maximum(np.where(denominator != 0.0, lam, 0.0), 0.0), 1.0)
-    flat = poly.reshape(3, -1)
-    p_a, p_b = np.take(flat, a, axis=1), np.take(flat, b, axis=1)
-    return p_a + lam * (p_b - p_a)
+#: more per side plane that cuts; at most 8, the patterns fit a byte).
+_CUT_TABLES = {k: _cut_tables(k) for k in range(FACE_SLOTS, FACE_SLOTS + len(_SIDE_PLANES))}
 
 
 def _cut(poly, s, pattern, coordinate, value):
     """One Sutherland-Hodgman step on columns that the plane cuts (some slots in, some out).
 
     Output slots: the entry crossing, the K - 1 slots after the entry edge in cyclic order (an
-    outside slot replaced by the exit crossing), the exit crossing; the plane's coordinate of
-    a crossing is set to its exact value. Shapes (3, K, C) -> (3, K + 1, C); ``pattern`` (C,)
-    has bit i set where slot i is inside.
+    outside slot replaced by the exit crossing), the exit crossing. A crossing on the edge
+    from slot a to slot b is ``a + lam (b - a)`` (u, w and p), ``lam = s_a / (s_a - s_b)``
+    (in [0, 1]: the two are on different sides), with the plane's coordinate set to its exact
+    ``value`` (C,). Shapes (3, K, C) -> (3, K + 1, C); ``pattern`` (C,) has bit i set where
+    slot i is inside.
     """
     k, c = s.shape
-    entry_of, leave_of, walk_of, walk_inside_of = _CUT_TABLES[k]
-    entry, leave = np.take(entry_of, pattern), np.take(leave_of, pattern)
-    enter_point = _crossings(poly, s, entry, (entry + 1) % k)
-    leave_point = _crossings(poly, s, leave, (leave + 1) % k)
-    enter_point[coordinate] = value
-    leave_point[coordinate] = value
-    walk = np.take(walk_of, pattern, axis=1) * c + np.arange(c)  # (K - 1, C) flat slots
+    ends_of, walk_of, walk_inside_of = _CUT_TABLES[k]
+    column = np.arange(c)
+    ends = np.take(ends_of, pattern, axis=2) * c + column  # (2 start/end, 2, C) flat slots
+    s_a, s_b = np.take(s, ends)
+    lam = s_a / (s_a - s_b)
+    flat = poly.reshape(3, -1)
+    start, end = np.take(flat, ends[0], axis=1), np.take(flat, ends[1], axis=1)
+    crossing = start + lam * (end - start)  # (3, 2 entry/exit, C)
+    crossing[coordinate] = value
+    walk = np.take(walk_of, pattern, axis=1) * c + column  # (K - 1, C) flat slots
     out = np.empty((3, k + 1, c))
-    out[:, 0] = enter_point
+    out[:, 0], out[:, k] = crossing[:, 0], crossing[:, 1]
     out[:, 1:k] = np.where(np.take(walk_inside_of, pattern, axis=1),
-                           np.take(poly.reshape(3, -1), walk, axis=1), leave_point[:, None])
-    out[:, k] = leave_point
+                           np.take(flat, walk, axis=1), crossing[:, 1, None])
     return out
-
-
-def _clip_part(part, columns, s, coordinate, value, parts):
-    """Clip the ``columns`` (C,) of a part by the half-plane ``s >= 0`` (K, C).
-
-    A part is ``[poly (3, K, C'), keep (C',), live (C',) bool]``: polygons, their input
-    column ids and which of them are still current. Columns the plane leaves whole stay as they
-    are; cut ones (:func:`_cut`, K + 1 slots) go to a new part appended to ``parts``; cut and
-    emptied ones are no longer live in ``part``. ``value`` (C,) is the plane's exact
-    ``coordinate``.
-    """
-    poly, keep, live = part
-    k = s.shape[0]
-    bits = (s >= 0.0).astype(np.uint16)
-    pattern = bits[0]  # bit i: slot i inside
-    for i in range(1, k):
-        pattern = pattern | (bits[i] << i)
-    whole = pattern == (1 << k) - 1
-    if whole.all():
-        return
-    live[columns[~whole]] = False
-    rows = np.flatnonzero(~whole & (pattern != 0))
-    if rows.size:
-        cut = columns[rows]
-        parts.append([_cut(poly[:, :, cut], s[:, rows], pattern[rows], coordinate, value[rows]),
-                      keep[cut], np.ones(len(rows), bool)])
 
 
 def clip_polygons(poly, half_u, half_w):
     """Clip polygons (3, K, C) (absolute u, w, p) to ``|u| <= half_u``, ``|w| <= half_w``
-    (C,).
+    (C,), by Sutherland-Hodgman (:func:`_cut`), plane by plane (:data:`_SIDE_PLANES`).
 
-    A side plane is applied only to the polygons that reach past it (largest u, -u, w, -w of
-    the input), the others being whole on its side. Columns are never copied to be left alone:
-    a part keeps a mask of its current columns, applied once at the end.
+    All polygons stay in one array: a plane that cuts some of them adds a slot to every
+    column, a repeat of the last slot where the plane does not cut (a repeated point changes
+    neither a later cut nor the fan's sums).
 
     Returns
     -------
-    list of (poly, keep)
-        The clipped polygons in parts of equal slot count: ``poly`` (3, K', C_k) (slots past a
-        polygon's end repeat a point), ``keep`` (C_k,) the input column of each.
+    poly : ndarray, shape (3, K', C)
+        The clipped polygons (K <= K' <= K + 4).
+    live : ndarray of bool, shape (C,)
+        False where nothing is left.
     """
-    count = poly.shape[2]
-    reach = np.array([poly[U].max(axis=0), -poly[U].min(axis=0), poly[W].max(axis=0),
-                      -poly[W].min(axis=0)])
-    parts = [[poly, np.arange(count), np.ones(count, bool)]]
-    for plane, (coordinate, halves, upper) in enumerate(
-            ((U, half_u, True), (U, half_u, False), (W, half_w, True), (W, half_w, False))):
-        for part in list(parts):
-            part_poly, keep, live = part
-            bound = halves[keep]
-            chosen = np.flatnonzero(live & (reach[plane][keep] > bound))
-            if not chosen.size:
-                continue
-            bound, values = bound[chosen], part_poly[coordinate][:, chosen]
-            s = bound - values if upper else bound + values
-            _clip_part(part, chosen, s, coordinate, bound if upper else -bound, parts)
-    done = []
-    for part_poly, keep, live in parts:
-        if live.all():
-            done.append((part_poly, keep))
-        elif live.any():
-            rows = np.flatnonzero(live)
-            done.append((part_poly[:, :, rows], keep[rows]))
-    return done
+    k, count = poly.shape[1:]
+    halves = (half_u, half_w)
+    live = np.ones(count, bool)
+    grown = np.empty((3, k + len(_SIDE_PLANES), count))
+    grown[:, :k] = poly
+    for coordinate, which, upper in _SIDE_PLANES:
+        bound = halves[which]
+        s = bound - grown[coordinate, :k] if upper else bound + grown[coordinate, :k]
+        pattern = np.packbits(s >= 0.0, axis=0, bitorder="little")[0]  # bit i: slot i inside
+        live &= pattern != 0
+        cut = np.flatnonzero(live & (pattern != (1 << k) - 1))
+        if cut.size:
+            clipped = _cut(np.take(grown[:, :k], cut, axis=2), np.take(s, cut, axis=1),
+                           pattern[cut], coordinate, bound[cut] if upper else -bound[cut])
+            grown[:, k] = grown[:, k - 1]
+            grown[:, :k + 1, cut] = clipped
+            k += 1
+    return grown[:, :k], live
 
 
 def _side_clipped(apex, slots, pressure, half_u, half_w, per_face, deepest):
     """Stage 4: replace, in ``per_face`` (4, 3 m) and ``deepest`` (3 m,), the moments and the
-    largest pressure of the faces that reach past a side plane (and whose apex has
-    ``p0 > 0``) by those of their clipped polygons (0 and -inf where nothing is left)."""
+    largest pressure of the faces that reach past a side plane (of rows with ``p0 > 0``) by
+    those of their clipped polygons (0 and -inf where nothing is left).
+
+    Only rows near the rim are searched: no slot of a row reaches further from its apex, in u
+    or w, than the sum of the faces' first slots' (the fractions of the apex's edges), and
+    that bound holds for the rounded values too (rounding is monotone).
+    """
     m = apex.shape[1]
-    apex_uw, bound = apex[:2, None], np.array([half_u, half_w])[:, None]
-    reach = ((apex_uw + np.maximum.reduce(slots, axis=1, initial=0.0) > bound)
-             | (apex_uw + np.minimum.reduce(slots, axis=1, initial=0.0) < -bound))
-    columns = np.flatnonzero((reach[0] | reach[1]) & (apex[P] > 0.0))
-    if not columns.size:
+    bound = np.array([half_u, half_w])
+    extent = np.abs(slots[:, 0])  # (2, 3 k, m)
+    extent = (extent[:, 0] + extent[:, 1]) + extent[:, 2]
+    near = np.flatnonzero(((apex[:2] + extent > bound) | (apex[:2] - extent < -bound)).any(axis=0)
+                          & (apex[P] > 0.0))
+    if not near.size:
         return
-    rows = columns % m
+    near_slots, apex_uw = np.take(slots, near, axis=3), apex[:2, None, near]
+    reach = ((apex_uw + np.maximum.reduce(near_slots, axis=1, initial=0.0) > bound[:, None, near])
+             | (apex_uw + np.minimum.reduce(near_slots, axis=1, initial=0.0)
+                < -bound[:, None, near]))
+    face, at = np.nonzero(reach[0] | reach[1])
+    if not face.size:
+        return
+    rows = near[at]
+    columns = face * m + rows
     poly = np.empty((3, FACE_SLOTS, len(columns)))
     poly[:, 0] = apex[:, rows]
-    np.add(apex[:2, None, rows], slots.reshape(2, 4, -1)[:, :, columns], out=poly[:2, 1:])
-    poly[P, 1:] = pressure.reshape(4, -1)[:, columns]
-    per_face[:, columns], deepest[columns] = 0.0, -np.inf
-    for part, keep in clip_polygons(poly, half_u[rows], half_w[rows]):
-        per_face[:, columns[keep]] = fan_moments(part)
-        deepest[columns[keep]] = part[P].max(axis=0)
+    np.add(apex[:2, None, rows], near_slots[:, :, face, at], out=poly[:2, 1:])
+    poly[P, 1:] = pressure[:, face, rows]
+    poly, live = clip_polygons(poly, half_u[rows], half_w[rows])
+    per_face[:, columns] = np.where(live, fan_moments(poly), 0.0)
+    deepest[columns] = np.where(live, poly[P].max(axis=0), -np.inf)
 
 
 def centre_of_pressure(frame, scale, fallback):
@@ -375,8 +353,8 @@ def centre_of_pressure(frame, scale, fallback):
     """
     tau = PRESSURE_FLOOR_REL * scale
     m = len(scale)
-    apex, edge, drop, ref_sign = apex_edges(frame, tau)
     height, half_u, half_w = frame.half_ref()
+    apex, edge, drop, ref_sign = apex_edges(frame, height, tau)
     slots, pressure = depth_slots(apex, edge, drop)
     per_face = moments(fan_sums(slots[U], slots[W], pressure, apex[P]), apex[U], apex[W])
     per_face = per_face.reshape(4, 3 * m)
