@@ -130,7 +130,7 @@ def fan_moments(apex, rest):
 
 def _near_rim(apex, faces, half_u, half_w):
     """Whether any slot may reach past a side plane (batch: ``_side_clipped``'s ``near``)."""
-    (first_0, _, _, _), (first_1, _, _, _), (first_2, _, _, _) = faces
+    first_0, first_1, first_2 = faces[0][0], faces[1][0], faces[2][0]
     extent_u = (abs(first_0[0]) + abs(first_1[0])) + abs(first_2[0])
     extent_w = (abs(first_0[1]) + abs(first_1[1])) + abs(first_2[1])
     a_u, a_w = apex[0], apex[1]

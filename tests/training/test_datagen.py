@@ -6,6 +6,7 @@ from scipy.spatial.transform import Rotation
 
 from models.contacts import CONTACT_TYPE_CODES
 from models.exact import box_box
+from models.pressure import REGION_DEPTH_TOL_REL
 from models.scenes import load_scene, parse_scene
 from training.datagen import (
     COLUMN_SPECS,
@@ -98,7 +99,9 @@ def test_contact_share_touches_within_the_drawn_depth(depth_fraction):
     data = generate_pairs(C40, SPREADER, 1500, 2, config, depth_fraction=(0.3, 0.4),
                           progress=False)
     shortest = min(min(C40), min(SPREADER))
-    tol = DEPTH_TOL_REL * max(max(C40), max(SPREADER))
+    # + the solver's documented slack: a face contact keeps its SAT overlap while the
+    # footprint's deepest point is within REGION_DEPTH_TOL_REL of the size of it
+    tol = (DEPTH_TOL_REL + REGION_DEPTH_TOL_REL) * max(max(C40), max(SPREADER))
     pushed = data["push_depth"] >= 0
     assert pushed.mean() > 0.9
     push = data["push_depth"][pushed]
