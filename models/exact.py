@@ -16,8 +16,8 @@ Stages (each pair independently, all pairs at once in vectorised float64 NumPy):
    that looks towards the reference face (:mod:`models.pressure`); for an edge axis, the
    midpoint of the edges' closest points. A face contact's depth is the SAT overlap along its
    normal, or the deepest point of the footprint where that is shallower (the incident box's
-   deepest vertex hangs beyond the reference face, e.g. a tilted container overhanging). Everything is mapped back to the world frame
-   (:func:`to_world`).
+   deepest vertex hangs beyond the reference face, e.g. a tilted container overhanging).
+   Everything is mapped back to the world frame (:func:`to_world`).
 
 Vectorised layout. The pairs go through stages 1-4 in blocks of :data:`CHUNK_ROWS`, small
 enough that a block's working set stays in the CPU cache. Inside a block every quantity is a

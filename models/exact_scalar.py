@@ -16,8 +16,14 @@ from models.manifold import FACE_REF_CODES as FACE_REF_CODES_ARRAY
 from models.manifold import QUAD_SIGNS, SNAP_TOL_REL
 from models.pressure import REGION_DEPTH_TOL_REL
 from models.pressure_one import centre_of_pressure
-from models.sat import (CONTACT_TOL_REL, DEPTH_GAIN_TOL_REL, EDGE_INSIDE_TOL_REL,
-                        EDGE_SKEW_TOL_REL, FACE_AXIS_COS_TOL, TIE_TOL_REL)
+from models.sat import (
+    CONTACT_TOL_REL,
+    DEPTH_GAIN_TOL_REL,
+    EDGE_INSIDE_TOL_REL,
+    EDGE_SKEW_TOL_REL,
+    FACE_AXIS_COS_TOL,
+    TIE_TOL_REL,
+)
 from models.scalar_inputs import single_pair  # noqa: F401  (re-exported: the N = 1 entry)
 
 _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]

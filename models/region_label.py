@@ -32,7 +32,6 @@ from models import contacts as ct
 from models import exact_scalar as es
 from models import local_frame as lf
 from models import manifold as mf
-from models import sat
 from models.exact import CHUNK_ROWS, contact_axes, prepare_inputs, unit_quaternions
 from models.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE
 
