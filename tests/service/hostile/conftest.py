@@ -86,7 +86,10 @@ def post(port: int, path: str, body: bytes, headers: dict | None = None,
 
 
 _PROBE_SCRIPT = """
-import http.client, sys, time
+import http.client, signal, sys, time
+# SIGINT ends the probe even where the test runner was started with SIGINT ignored (a
+# background job inherits SIG_IGN, and Python then installs no KeyboardInterrupt handler)
+signal.signal(signal.SIGINT, signal.default_int_handler)
 port, interval, out = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
 conn = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
 samples = []
