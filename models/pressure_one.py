@@ -12,10 +12,6 @@ import math
 from models.pressure import PRESSURE_FLOOR_REL
 
 
-def _sign(x: float) -> float:
-    return 1.0 if x >= 0.0 else -1.0
-
-
 def apex_edges(h_ref, h_inc, rot_ri, t_ri, ref_axis, tau):
     """The incident box's deepest vertex and its three edges (batch: ``apex_edges``).
 
@@ -24,47 +20,58 @@ def apex_edges(h_ref, h_inc, rot_ri, t_ri, ref_axis, tau):
     incident axis j ``(d_u, d_w, g)``: the edge from the apex and its pressure drop (metres).
     """
     axis, u, w = ref_axis, (ref_axis + 1) % 3, (ref_axis + 2) % 3
-    ref_sign = _sign(t_ri[axis])
     along, at_u, at_w = t_ri[axis], t_ri[u], t_ri[w]
-    row_x, row_u, row_w = rot_ri[axis], rot_ri[u], rot_ri[w]
+    ref_sign = 1.0 if along >= 0.0 else -1.0
     edges = []
-    for j in range(3):
-        reach = -_sign(ref_sign * row_x[j]) * h_inc[j]
-        x, y, z = reach * row_x[j], reach * row_u[j], reach * row_w[j]
+    for x, y, z, half in zip(rot_ri[axis], rot_ri[u], rot_ri[w], h_inc):
+        reach = -half if ref_sign * x >= 0.0 else half  # towards the reference face
+        x, y, z = reach * x, reach * y, reach * z
         along, at_u, at_w = along + x, at_u + y, at_w + z
         edges.append((-2.0 * y, -2.0 * z, 2.0 * abs(x)))
-    apex = (at_u, at_w, (h_ref[axis] - ref_sign * along) + tau)
-    return apex, edges, ref_sign
+    return (at_u, at_w, (h_ref[axis] - ref_sign * along) + tau), edges, ref_sign
 
 
-def _fraction(level, drop):
-    """Fraction of an edge that stays at ``p >= 0`` (batch: ``_fraction``)."""
-    if level < 0.0:
-        return 0.0
-    return level / drop if level < drop else 1.0
+#: The in-plane axes (p, q) of incident faces 0, 1, 2.
+_FACE_AXES = ((1, 2), (2, 0), (0, 1))
 
 
 def depth_slots(p0, edges):
-    """The three front faces clipped to ``p >= 0``: per face k, 4 ``(u, w, p)`` slots after
-    the apex, u and w relative to it (batch: ``depth_slots``)."""
-    cuts, levels = [], []
+    """The three front faces clipped to ``p >= 0`` (batch: ``depth_slots``), for ``p0 > 0``.
+
+    Returns ``(faces, extent_u, extent_w)``: per face, its slots after the apex as ``(u, w,
+    p)``, u and w relative to the apex, and the sums of the faces' first slots' ``|u|`` and
+    ``|w|`` (batch: ``_side_clipped``). A slot that repeats its neighbour (batch: ``mu`` or
+    ``nu`` = 0, where the apex's neighbour is outside) is left out: it only adds triangles of
+    zero area.
+    """
+    firsts, levels = [], []
     for d_u, d_w, drop in edges:
-        fraction = _fraction(p0, drop)
-        cuts.append((fraction * d_u, fraction * d_w))
-        levels.append(p0 - drop)
+        fraction, level = (p0 / drop if p0 < drop else 1.0), p0 - drop
+        firsts.append((fraction * d_u, fraction * d_w, level if level > 0.0 else 0.0))
+        levels.append(level)
+    (u_0, w_0, _), (u_1, w_1, _), (u_2, w_2, _) = firsts  # faces 2, 0, 1 start there
+    extent_u = (abs(u_1) + abs(u_2)) + abs(u_0)
+    extent_w = (abs(w_1) + abs(w_2)) + abs(w_0)
     faces = []
-    for k in range(3):
-        p, q = (k + 1) % 3, (k + 2) % 3
-        (cut_pu, cut_pw), (cut_qu, cut_qw) = cuts[p], cuts[q]
+    for p, q in _FACE_AXES:
+        first, last = firsts[p], firsts[q]
         level_p, level_q = levels[p], levels[q]
+        if level_p < 0.0 and level_q < 0.0:
+            faces.append((first, last))
+            continue
         (d_pu, d_pw, drop_p), (d_qu, d_qw, drop_q) = edges[p], edges[q]
-        mu, nu = _fraction(level_p, drop_q), _fraction(level_q, drop_p)
-        far = max(level_p - drop_q, 0.0)
-        faces.append(((cut_pu, cut_pw, max(level_p, 0.0)),
-                      (cut_pu + mu * d_qu, cut_pw + mu * d_qw, far),
-                      (cut_qu + nu * d_pu, cut_qw + nu * d_pw, far),
-                      (cut_qu, cut_qw, max(level_q, 0.0))))
-    return faces
+        far = level_p - drop_q
+        far = far if far > 0.0 else 0.0
+        slots = [first]
+        if level_p >= 0.0:
+            mu = level_p / drop_q if level_p < drop_q else 1.0
+            slots.append((first[0] + mu * d_qu, first[1] + mu * d_qw, far))
+        if level_q >= 0.0:
+            nu = level_q / drop_p if level_q < drop_p else 1.0
+            slots.append((last[0] + nu * d_pu, last[1] + nu * d_pw, far))
+        slots.append(last)
+        faces.append(slots)
+    return faces, extent_u, extent_w
 
 
 def _crossing(poly, s, start, coordinate, value):
@@ -79,12 +86,12 @@ def _crossing(poly, s, start, coordinate, value):
 
 
 def clip(poly, s, coordinate, value):
-    """One Sutherland-Hodgman step by ``s >= 0``, in the batch path's output order."""
+    """One Sutherland-Hodgman step by ``s >= 0``, in the batch path's output order; for a
+    polygon with a point outside."""
     k = len(poly)
     inside = [x >= 0.0 for x in s]
-    count = sum(inside)
-    if count == k or count == 0:
-        return poly if count else []
+    if not any(inside):
+        return []
     entry = next(i for i in range(k) if not inside[i] and inside[(i + 1) % k])
     walk = [(entry + j) % k for j in range(1, k)]
     leave = next(x for x in walk if inside[x] and not inside[(x + 1) % k])
@@ -94,14 +101,17 @@ def clip(poly, s, coordinate, value):
 
 
 def clip_sides(poly, half_u, half_w):
-    """A polygon (absolute ``[u, w, p]`` points) clipped to the four side planes in the batch
-    path's order; [] if nothing is left (batch: ``clip_polygons``)."""
+    """A polygon (absolute ``(u, w, p)`` points) clipped to the four side planes in the batch
+    path's order (batch: ``clip_polygons``): [] if nothing is left, ``poly`` itself if no
+    point is outside."""
     for coordinate, bound, upper in ((0, half_u, True), (0, half_u, False), (1, half_w, True),
                                      (1, half_w, False)):
+        values = [v[coordinate] for v in poly]
         if upper:
-            poly = clip(poly, [bound - v[coordinate] for v in poly], coordinate, bound)
-        else:
-            poly = clip(poly, [bound + v[coordinate] for v in poly], coordinate, -bound)
+            if max(values) > bound:
+                poly = clip(poly, [bound - x for x in values], coordinate, bound)
+        elif min(values) < -bound:
+            poly = clip(poly, [bound + x for x in values], coordinate, -bound)
         if not poly:
             return poly
     return poly
@@ -128,32 +138,29 @@ def fan_moments(apex, rest):
             sum_pp / 12.0)
 
 
-def _near_rim(apex, faces, half_u, half_w):
-    """Whether any slot may reach past a side plane (batch: ``_side_clipped``'s ``near``)."""
-    first_0, first_1, first_2 = faces[0][0], faces[1][0], faces[2][0]
-    extent_u = (abs(first_0[0]) + abs(first_1[0])) + abs(first_2[0])
-    extent_w = (abs(first_0[1]) + abs(first_1[1])) + abs(first_2[1])
-    a_u, a_w = apex[0], apex[1]
-    return (a_u + extent_u > half_u or a_u - extent_u < -half_u
-            or a_w + extent_w > half_w or a_w - extent_w < -half_w)
-
-
 def _clipped_face(apex, slots, half_u, half_w):
-    """Moments and largest pressure of a face that reaches past a side plane, clipped to them
-    (batch: ``_side_clipped``); None if it does not reach past one, ``(None, -inf)`` if
-    nothing is left."""
-    a_u, a_w, p0 = apex
-    us, ws = [v[0] for v in slots], [v[1] for v in slots]
-    if not (a_u + max(0.0, *us) > half_u or a_u + min(0.0, *us) < -half_u
-            or a_w + max(0.0, *ws) > half_w or a_w + min(0.0, *ws) < -half_w):
+    """Moments and largest pressure of a face clipped to the side planes (batch:
+    ``_side_clipped``): None if no point is outside them (the face reaches past none),
+    ``(None, -inf)`` if nothing is left.
+
+    No slot lies further from the apex in u or w than the first and the last together (as for
+    the row, :func:`depth_slots`), so most faces need no clipping at all.
+    """
+    a_u, a_w, _ = apex
+    (first_u, first_w, _), (last_u, last_w, _) = slots[0], slots[-1]
+    reach_u, reach_w = abs(first_u) + abs(last_u), abs(first_w) + abs(last_w)
+    if not (a_u + reach_u > half_u or a_u - reach_u < -half_u
+            or a_w + reach_w > half_w or a_w - reach_w < -half_w):
         return None
-    poly = clip_sides([list(apex)] + [[a_u + u, a_w + w, p] for u, w, p in slots],
-                      half_u, half_w)
-    if not poly:
+    poly = [apex] + [(a_u + u, a_w + w, p) for u, w, p in slots]
+    clipped = clip_sides(poly, half_u, half_w)
+    if clipped is poly:
+        return None
+    if not clipped:
         return None, -math.inf
-    first = poly[0]
-    rest = [(v[0] - first[0], v[1] - first[1], v[2]) for v in poly[1:]]
-    return fan_moments(first, rest), max(v[2] for v in poly)
+    first_u, first_w, _ = first = clipped[0]
+    rest = [(v[0] - first_u, v[1] - first_w, v[2]) for v in clipped[1:]]
+    return fan_moments(first, rest), max(v[2] for v in clipped)
 
 
 def centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback):
@@ -171,8 +178,10 @@ def centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback):
         point[axis], point[u], point[w] = fallback
         return point, None
     half_u, half_w = h_ref[u], h_ref[w]
-    faces = depth_slots(p0, edges)
-    near = _near_rim(apex, faces, half_u, half_w)
+    faces, extent_u, extent_w = depth_slots(p0, edges)
+    a_u, a_w = apex[0], apex[1]  # some slot may reach past a side plane:
+    near = (a_u + extent_u > half_u or a_u - extent_u < -half_u
+            or a_w + extent_w > half_w or a_w - extent_w < -half_w)
     weight = along_u = along_w = square = 0.0
     deepest = -math.inf
     for slots in faces:
