@@ -250,7 +250,7 @@ def solve_local(pose: lf.LocalPose) -> dict:
     colliding, axis, depth, normal, edge = contact_axes(pose)
     out = {
         "colliding": colliding, "axis": axis, "depth": depth, "normal": normal,
-        "point": np.empty((3, m)), "contact_type_code": np.zeros(m, np.int8),
+        "point": np.zeros((3, m)), "contact_type_code": np.zeros(m, np.int8),  # 0: separated
         "feature_a": np.full(m, bf.NO_FEATURE, np.int8),
         "feature_b": np.full(m, bf.NO_FEATURE, np.int8),
         "manifold_count": np.zeros(m, np.int8),

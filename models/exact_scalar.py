@@ -118,13 +118,16 @@ def choose_axis(over, sines, rot, scale):
     tie = TIE_TOL_REL * scale
     face_min = min(over[:6])
     face_axis = next(k for k in range(6) if over[k] <= face_min + tie)
+    colliding = min(over) >= -CONTACT_TOL_REL * scale
+    gain = DEPTH_GAIN_TOL_REL * scale
+    if min(over[6:]) >= face_min - gain:  # no cross axis can win: rule 1 need not be asked
+        return colliding, (face_axis if colliding else over.index(min(over))), face_axis
     near = [_near_face(rot, sines[c], c // 3, c % 3, face_axis) for c in range(9)]
     eligible = [math.inf if n else over[6 + c] for c, n in enumerate(near)]
     cross_min = min(eligible)
     cross_axis = 6 + eligible.index(cross_min)
     face_bar = min(face_min, min([over[6 + c] if n else math.inf for c, n in enumerate(near)]))
-    axis = cross_axis if cross_min < face_bar - DEPTH_GAIN_TOL_REL * scale else face_axis
-    colliding = min(over) >= -CONTACT_TOL_REL * scale
+    axis = cross_axis if cross_min < face_bar - gain else face_axis
     return colliding, (axis if colliding else over.index(min(over))), face_axis
 
 

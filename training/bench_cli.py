@@ -2,7 +2,7 @@
 
     impactnet bench [--quick] [--out bench_results] [--seed 0] [--scene quay_crane] [--http]
                     [--grids 1,2,4,8,16,32,64] [--bundle PATH]
-    impactnet bench exact [--quick] [--json PATH] [--seed 0]
+    impactnet bench exact [--quick] [--json PATH] [--seed 0] [--baseline DIR]
 
 The first form measures the exact solver, python-fcl's Box-Box, the paper's polygon method at
 each grid size and the learned predictors (``models.load_predictor``; "not available: <reason>"
@@ -64,6 +64,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     exact.add_argument("--quick", action="store_true", help="fewer repeats (a smoke run)")
     exact.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     exact.add_argument("--seed", type=int, default=0, help="pose generator seed (default 0)")
+    exact.add_argument("--baseline", metavar="DIR",
+                       help="an earlier checkout (e.g. from `git worktree add DIR REV`): its "
+                            "N = 1 time is measured next to this one's, alternately")
 
 
 def _pin_single_thread() -> None:
@@ -80,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
     if getattr(args, "bench_command", None) == "exact":
         from training.bench_exact import run as run_exact
 
-        return run_exact(quick=args.quick, json_path=args.json, seed=args.seed)
+        return run_exact(quick=args.quick, json_path=args.json, seed=args.seed,
+                         baseline=args.baseline)
     from training.bench import report
     from training.bench.measure import QUICK, BenchConfig, with_overrides
     from training.bench.runner import run_bench

@@ -53,7 +53,8 @@ def point_error_percent(predicted, desired, size, exact_point=None) -> np.ndarra
     The predicted point is where the ray from A's centre along the predicted direction (outputs
     1, 2) leaves A. It is compared with the same construction on the desired direction, or with
     ``exact_point`` (n, 3, A's frame, metres) when given: the latter also counts the
-    mid-surface offset (half the depth) that the angles cannot carry.
+    centre of pressure's offset below the surface (up to half the depth) that the angles
+    cannot carry.
     """
     p, d = np.asarray(predicted), np.asarray(desired)
     size = np.asarray(size, dtype=np.float64)

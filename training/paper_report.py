@@ -119,7 +119,7 @@ def _problem_sections(key: str, p: dict, t: dict) -> list[str]:
               _distribution_row("normal angle error (degrees)", ext["normal_error_deg"], ""),
               _distribution_row("point error, % of edge (both on A's surface)",
                                 ext["point_error_percent_of_edge"], "%"),
-              _distribution_row("point error, % of edge (vs the exact mid-surface point)",
+              _distribution_row("point error, % of edge (vs the exact centre of pressure)",
                                 ext["point_error_vs_exact_percent_of_edge"], "%")]
     fname, fig = FIGURES[key]
     lines += ["", f"![{fig}]({fname})", "",

@@ -67,14 +67,16 @@ def protocol_lines(results: dict, t: dict) -> list[str]:
              "the impact point's direction from A's centre, then of the force direction (the "
              "contact normal, from A towards B), both in A's frame; azimuth = atan2(y, x) in "
              "[-pi, pi], elevation in [-pi/2, pi/2] (`models.spherical`). Labels come from the "
-             "exact solver (`models.exact.box_box`); the impact point is its mid-surface point.",
+             "exact solver (`models.exact.box_box`); the impact point is its centre of pressure "
+             "(DESIGN.md, point rule v2).",
              "* **With discontinuities**: every contact of that stream (all contact types and "
              "features).",
              f"* **Without discontinuities**: one discontinuity-free region, contact type "
              f"face-vertex with feature_a = {fa} ({bf.feature_name(fa)} of A) and feature_b = "
              f"{fb} ({bf.feature_name(fb)} of B): B's corner on A's +x face. Every pattern of "
-             "all three sets has exactly this label. Inside the region the impact point is B's "
-             "corner (moved half the depth to the mid-surface), a smooth function of the pose, "
+             "all three sets has exactly this label. Inside the region the impact point is the "
+             "centre of pressure of the small footprint around B's corner (within the depth of "
+             "the corner), a smooth function of the pose, "
              "and the force direction is A's +x normal, so outputs 3 and 4 are the constants "
              "0 and 0. The +x face was chosen over +z because on +z the point's azimuth would "
              "cross the +-pi seam and the normal would sit on the pole, where the azimuth is "

@@ -25,7 +25,6 @@ from training.bench.vs_mujoco import (
     FACE_AXIS_RAD,
     NORMAL_TOL_DEG,
     angle_deg,
-    face_alignment,
 )
 
 __all__ = ["MAX_CONTACTS", "MujocoBoxBox", "mujoco_box_box", "overlap_along",
@@ -42,10 +41,11 @@ SAME_AXIS_DEG = 1e-6
 #: best face axis exceeds 0.99 is replaced by that face unless it is shallower by 5 % of the
 #: face's depth.
 MUJOCO_FACE_COSINE, MUJOCO_FACE_MARGIN = 0.99, 0.05
-#: An edge axis of ours closer than this (radians) to a face normal leans on that face: there
-#: DESIGN.md's tie rule must answer the face (the largest stacking tilt of issue #11, 1e-2 rad,
-#: is such a lean), and MuJoCo's face preference does not excuse an edge answer. Farther out,
-#: up to MuJoCo's ~8.1 deg, its preferred face and our shallower edge pair are both right.
+#: An edge axis of ours closer than this (radians) to the least-overlap face's normal leans on
+#: that face: there DESIGN.md's tie rule must answer the face (the largest stacking tilt of
+#: issue #11, 1e-2 rad, is such a lean), and MuJoCo's face preference does not excuse an edge
+#: answer. Farther out, up to MuJoCo's ~8.1 deg, its preferred face and our shallower edge pair
+#: are both right.
 FACE_LEAN_RAD = 1e-2
 #: Two axes whose overlaps differ by less than this (x the sum of both boxes' largest
 #: half-extents, the scale of an overlap's rounding) are equally deep: a tie (DESIGN.md). Far
@@ -77,6 +77,21 @@ def overlap_along(direction, args) -> np.ndarray:
         local = np.einsum("nij,ni->nj", rot, direction)
         radius = radius + 0.5 * (np.abs(local) * size).sum(axis=1)
     return radius - np.abs(np.einsum("ni,ni->n", direction, position_b - position_a))
+
+
+def least_face_alignment(normal, args) -> np.ndarray:
+    """Angle (radians, (n,)) between ``normal`` (n, 3) and the normal of the face axis of least
+    overlap, of A or B: the one face DESIGN.md's tie rule (rule 1) lets a leaning cross axis
+    compete as. Overlaps by :func:`overlap_along`, the angle in the cross-product form."""
+    quaternions = (args[2], args[5])
+    axes = np.concatenate([Rotation.from_quat(q, scalar_first=True).as_matrix()
+                           for q in quaternions], axis=2)  # (n, 3, 6): the face normals
+    overlap = np.stack([overlap_along(np.ascontiguousarray(axes[:, :, k]), args)
+                        for k in range(6)], axis=1)
+    rows = np.arange(len(normal))
+    face = axes[rows, :, overlap.argmin(axis=1)]
+    cosine = np.abs(np.einsum("ni,ni->n", face, normal))
+    return np.arctan2(np.linalg.norm(np.cross(normal, face), axis=1), cosine)
 
 
 def deepest_vertex_inside(args, normal, slack_rel: float = 1e-9) -> np.ndarray:
@@ -111,8 +126,9 @@ def disagreement_classes(args, ours, reference, errors) -> np.ndarray:
 
     Classes, first match wins: AGREE (within the targets, or neither finds a contact);
     TOUCHING (the flags differ, the contact is within TOUCHING_REL deep); MUJOCO_FACE_PREFERENCE
-    (MuJoCo answered a face axis, ours an edge pair farther than FACE_LEAN_RAD from every face
-    normal, whose overlap is the smaller, with MuJoCo's face within its cosine 0.99 and 5 %);
+    (MuJoCo answered a face axis, ours an edge pair farther than FACE_LEAN_RAD from the normal
+    of the least-overlap face, the one rule 1 of the tie rule compares it with, whose overlap
+    is the smaller, with MuJoCo's face within its cosine 0.99 and 5 %);
     EQUAL_DEPTH (ours and MuJoCo's normals are more than the normal target apart and equally
     deep: a tie, where either contact is right, except an edge pair of ours against a face of
     MuJoCo's: DESIGN.md's tie rule prefers the face); UNEXPLAINED otherwise. A point that
@@ -135,7 +151,7 @@ def disagreement_classes(args, ours, reference, errors) -> np.ndarray:
     shallow = np.where(mj.colliding, mj.depth, ours.depth) <= TOUCHING_REL * scale
     mj_face = reference.face_angle <= FACE_AXIS_RAD
     ours_edge = ours.contact_type_code == 3  # models.contacts.EDGE_EDGE
-    leaning = face_alignment(ours.normal, args[2], args[5]) <= FACE_LEAN_RAD
+    leaning = least_face_alignment(ours.normal, args) <= FACE_LEAN_RAD
     preference = (mj_face & ours_edge & ~leaning & (along_ours <= along_mj + atol)
                   & ((1.0 - MUJOCO_FACE_MARGIN) * along_mj <= along_ours + atol)
                   & (np.cos(np.radians(angle)) >= MUJOCO_FACE_COSINE))

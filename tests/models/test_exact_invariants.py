@@ -8,12 +8,17 @@ import pytest
 
 from models.contacts import CONTACT_TYPES
 from models.exact import box_box
+from models.pressure import PRESSURE_FLOOR_REL
 from models.rotations import quaternion_multiply, quaternion_to_matrix, random_quaternions
+from models.sat import FACE_AXIS_ANGLE_TOL
 from tests.models.helpers import KEYS, assert_finite, point_tolerance, scale_of
+from tests.models.mujoco_reference import overlap_along
 from training.poses import ORIENTATIONS, SIZE_FAMILIES, first_contact_poses
 
 #: Geometric tolerance (x pair scale): a few hundred ulps of the scale.
 GEOM_TOL_REL = 1e-11
+#: Swapped normals agree to this (unit vector components) where one axis clearly wins.
+SWAP_NORMAL_ATOL = 1e-9
 MIRRORED_TYPE = {name: "-".join(reversed(name.split("-"))) for name in CONTACT_TYPES}
 
 
@@ -38,11 +43,15 @@ def check_invariants(p):
     assert_finite(c)
     np.testing.assert_allclose(np.linalg.norm(c.normal, axis=1), 1.0, atol=1e-12)
     assert (c.depth >= 0).all()
-    # The point lies inside both boxes grown by the depth.
+    # The point lies inside both boxes grown by the depth and the pressure floor: the centre
+    # of pressure sits at most half the depth below the reference plane, over a footprint
+    # whose incident surface is at most the floor tau above that plane (models.pressure: the
+    # region is d + tau >= 0), so it is at most d / 2 + tau from the incident box.
+    grown = c.depth + PRESSURE_FLOOR_REL * scale
     for side in ("a", "b"):
         rot = quaternion_to_matrix(p[f"quaternion_{side}"])
         local = np.einsum("nij,ni->nj", rot, c.point - p[f"position_{side}"])
-        excess = np.abs(local) - 0.5 * p[f"size_{side}"] - c.depth[:, None]
+        excess = np.abs(local) - 0.5 * p[f"size_{side}"] - grown[:, None]
         assert (excess[c.colliding] <= tol[c.colliding, None]).all(), side
     # Separated rows say so and carry no features.
     assert (c.contact_type_code[~c.colliding] == 0).all()
@@ -56,7 +65,15 @@ def check_swap(p, c):
     tol = GEOM_TOL_REL * scale_of(p)
     np.testing.assert_array_equal(s.colliding, c.colliding)
     hit = c.colliding
-    np.testing.assert_allclose(s.normal[hit], -c.normal[hit], atol=1e-9)
+    # The normal flips, except where A's and B's parallel faces tie: then each call answers
+    # its own A's face, and the two normals differ by the faces' tilt (seed 2 of the long
+    # fuzz: 1.9e-9 rad) at equal overlap along both.
+    differ = hit & (np.abs(s.normal + c.normal).max(axis=1) > SWAP_NORMAL_ATOL)
+    args = tuple(p[k] for k in KEYS)
+    gap = np.abs(overlap_along(-s.normal, args) - overlap_along(c.normal, args))
+    assert (gap[differ] <= tol[differ]).all(), np.flatnonzero(differ & (gap > tol))[:5]
+    sine = np.linalg.norm(np.cross(s.normal, c.normal), axis=1)
+    assert (sine[differ] <= np.sin(FACE_AXIS_ANGLE_TOL)).all()
     np.testing.assert_allclose(s.depth, c.depth, atol=tol.max())
     np.testing.assert_array_equal(s.feature_a[hit], c.feature_b[hit])
     np.testing.assert_array_equal(s.feature_b[hit], c.feature_a[hit])
@@ -112,15 +129,25 @@ def test_invariants_hold_on_every_fuzz_sample():
     assert (counts > 0).all(), dict(zip(CONTACT_TYPES, counts))
 
 
-#: Long-fuzz seeds on which a few rows leave "both boxes grown by the depth" since a face
-#: contact of an overhanging box reports the footprint's deepest point (shallower than the SAT
-#: overlap the bound was written for). Open: find the rows and restate the bound.
-KNOWN_GROWN_BOX_MISSES = (2, 4, 5)
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [
-    pytest.param(s, marks=pytest.mark.xfail(reason="see KNOWN_GROWN_BOX_MISSES", strict=False))
-    if s in KNOWN_GROWN_BOX_MISSES else s for s in range(2, 6)])
+@pytest.mark.parametrize("seed", range(2, 6))
 def test_invariants_hold_on_a_long_fuzz_run(seed):
     run_fuzz(seed=seed, per_case=1000)
+
+
+def test_vertex_grazing_a_plate_far_from_the_origin_stays_within_the_pressure_floor():
+    """Long-fuzz seed 5 (formerly a known miss): a cube's vertex 5e-10 m into a 10 x 10 x
+    0.001 m plate, 70 m from the origin. The depth floor widens the footprint by tau, so the
+    point leaves the cube grown by the depth alone (by 2e-9 m) but not grown by depth + tau."""
+    p = {"size_a": [[10.0, 10.0, 0.001]],
+         "position_a": [[-55.1669224532766, -36.25123201222199, -39.09026286590284]],
+         "quaternion_a": [[0.28737336920544804, 0.2989779103675075, -0.8028158973638169,
+                           -0.4283869637649087]],
+         "size_b": [[1.0, 1.0, 1.0]],
+         "position_b": [[-57.38872967391678, -37.70773080034838, -36.16612328139776]],
+         "quaternion_b": [[0.0020773462055753223, 0.41476894094379946, -0.8769999765675883,
+                           0.242556078797359]]}
+    p = {k: np.asarray(v) for k, v in p.items()}
+    c = check_invariants(p)
+    assert c.contact_type[0] == "face-vertex"
+    assert c.depth[0] < PRESSURE_FLOOR_REL * scale_of(p)[0]
