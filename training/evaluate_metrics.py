@@ -157,7 +157,23 @@ def summaries(record: RowRecord) -> dict:
         out["region_accuracy"] = float(record.region_ok.mean())
     for key in ("normal_deg", "point_pct", "depth_pct", "depth_mm"):
         out[key] = summarise(getattr(record, key)[both])
+    if record.region_pred is not None:
+        out["experts"] = expert_rows(record)
     return out
+
+
+def expert_rows(record: RowRecord) -> dict:
+    """Point error (% of e) where a learned predictor's experts answer: rows in contact on both
+    sides, not sent to the exact solver and whose point is not the exact one (edge-edge and
+    aligned face rows take the exact point, issue 18). Share of such rows, median, p90, p99."""
+    both = record.both
+    learned = both & ~record.fallback & (record.point_pct != 0.0)
+    values = np.asarray(record.point_pct[learned], np.float64)
+    share = float(learned.sum() / both.sum()) if both.any() else None
+    if values.size == 0:
+        return {"share": share, "median": None, "p90": None, "p99": None}
+    median, p90, p99 = np.percentile(values, [50.0, 90.0, 99.0]).tolist()
+    return {"share": share, "median": median, "p90": p90, "p99": p99}
 
 
 def type_confusion(record: RowRecord) -> list[list[int]] | None:

@@ -138,12 +138,23 @@ def per_pair(results: dict) -> list[str]:
                      _num(a and 100 * a["fallback_share"], 3)])
     auto = results["pooled"]["predictors"].get("auto")
     overall = f"{100 * auto['fallback_share']:.2f} %" if auto else "-"
+    experts = []
+    for key, block in results["pairs"].items():
+        e = (block["predictors"].get("committee") or {}).get("experts")
+        if e:
+            experts.append([key, _num(e["share"] and 100 * e["share"], 1), _num(e["median"]),
+                            _num(e["p90"]), _num(e["p99"])])
     return ["## Per pair", "", f"`auto` falls back to the exact solver on {overall} of all "
             "rows; per pair below (`committee`'s and `auto`'s key figures; full figures in "
             "evaluation.json).", "",
             *_table(["pair", "region acc", "normal med", "normal mean", "point med",
                      "point mean", "auto normal p99", "auto point p99", "auto fallback %"],
-                    rows), ""]
+                    rows), "",
+            "`committee`'s point error (% of e) where its experts answer: rows not sent to the "
+            "exact solver whose point is not the exact one (edge-edge and aligned face rows "
+            "take the exact point).", "",
+            *_table(["pair", "expert rows %", "point med", "point p90", "point p99"], experts),
+            ""]
 
 
 def paper(results: dict) -> list[str]:

@@ -14,11 +14,12 @@ Protocol (shared/paper.txt, section IV, as impactnet reads it):
 "With discontinuities": every contact of that stream. "Without discontinuities": one region,
 :data:`CANONICAL_REGION` = (face-vertex, A's face +x, B's vertex (-,-,-)): B's corner on A's +x
 face. Inside it the point is the centre of pressure of the small footprint around B's corner
-(within the depth of the corner) and the normal is A's +x normal, both smooth in the pose. The 8 sign flips ``S = diag(s)``, applied to both boxes
-(``t -> S t``, ``R -> S R S``), leave the whole sampling distribution unchanged (they map
-(roll, pitch, yaw) to (s1 s2 roll, s0 s2 pitch, s0 s1 yaw), a uniform draw on the symmetric
-box to itself, and a uniform direction to a uniform direction); they map the 8 mirror images
-of the region (A's face +-x, B's vertex with the opposite x sign) onto it. So the data are
+(within the depth of the corner) and the normal is A's +x normal, both smooth in the pose. The 8
+sign flips ``S = diag(s)``, applied to both boxes (``t -> S t``, ``R -> S R S``), leave the whole
+sampling distribution unchanged (they map (roll, pitch, yaw) to (s1 s2 roll, s0 s2 pitch, s0 s1
+yaw), a uniform draw on the symmetric box to itself, and a uniform direction to a uniform
+direction); they map the 8 mirror images of the region (A's face +-x, B's vertex with the opposite
+x sign) onto it. So the data are
 drawn by rejection from the stream, each mirror-image row folded onto the canonical region by
 its flip and re-labelled by the exact solver; the result is distributed as the stream
 conditioned on the region, at 8x the yield. Rows whose fresh label is not the region (ties on
