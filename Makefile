@@ -34,12 +34,12 @@ $(PY):
 	$(BOOTSTRAP_PYTHON) -m venv $(VENV)
 
 # Runtime only (what serving needs): no torch.
-$(STAMP_RUNTIME): pyproject.toml | $(PY)
+$(STAMP_RUNTIME): pyproject.toml setup.py | $(PY)
 	$(PIP) install -e .
 	@touch $@
 
 # torch first, pinned, so that the `torch` requirement of the train extra is already met.
-$(STAMP_DEV): pyproject.toml | $(PY)
+$(STAMP_DEV): pyproject.toml setup.py | $(PY)
 	$(PIP) install torch==$(TORCH_VERSION)
 	$(PIP) install -e '.[train,dev]'
 	@touch $@ $(STAMP_RUNTIME)

@@ -7,10 +7,8 @@ does so only lazily, inside the subcommand that needs them: `impactnet contact` 
 runtime-only install, and `--help` must be instant. Nothing heavy (not even numpy) is imported at
 module level.
 
-Implemented: `serve`, `datagen`, `train`, `sweep`, `evaluate`, `bench`, `reproduce-paper`
-(delegated to the modules named in `_DELEGATED`) and `contact` (one exact box-box contact,
-printed as JSON). A subcommand listed in `_PENDING` would say which issue brings it and exit
-with status 2.
+`serve`, `datagen`, `train`, `sweep`, `evaluate`, `bench` and `reproduce-paper` are delegated
+to the modules named in `_DELEGATED`; `contact` prints one exact box-box contact as JSON.
 """
 from __future__ import annotations
 
@@ -19,13 +17,7 @@ import json
 import math
 import re
 import sys
-from collections.abc import Callable, Sequence
-
-EXIT_NOT_IMPLEMENTED = 2
-
-# Which issue brings each subcommand that does not exist yet.
-_PENDING = {
-}
+from collections.abc import Sequence
 
 # Default pair of `impactnet contact`: the paper's cubes (edge 2 m); B rests on A's top face,
 # offset sideways, 5 cm pushed in and tilted by 0.05 rad about the horizontal axis (1, 1, 0), so
@@ -40,22 +32,12 @@ _DEFAULT_QUATERNION_B = [
 ]
 
 
-def _not_implemented(name: str) -> Callable[[argparse.Namespace], int]:
-    def handler(args: argparse.Namespace) -> int:
-        print(f"impactnet {name}: not implemented yet: arrives with {_PENDING[name]}.",
-              file=sys.stderr)
-        return EXIT_NOT_IMPLEMENTED
-
-    handler.pending = True  # accepts (and ignores) any arguments, see main()
-    return handler
-
-
 # ----------------------------------------------------------------------------- contact
 
 
 def _cmd_contact(args: argparse.Namespace) -> int:
     try:
-        from models.exact import box_box
+        from impactnet.models.box.exact import box_box
     except ImportError as exc:
         print(f"impactnet contact: the exact solver is not available ({exc}).", file=sys.stderr)
         return 1
@@ -88,7 +70,8 @@ def dumps_compact(body: dict) -> str:
 
 
 def contact_row_to_json(contacts, i: int) -> dict:
-    """Row i of a `models.contacts.Contacts` as plain JSON types (valid manifold rows only)."""
+    """Row i of a `impactnet.models.contacts.Contacts` as plain JSON types (valid manifold rows
+    only)."""
     count = int(contacts.manifold_count[i])
     out = {
         "predictor": str(contacts.predictor[i]) if contacts.predictor is not None else "exact",
@@ -107,7 +90,7 @@ def contact_row_to_json(contacts, i: int) -> dict:
         },
     }
     try:  # readable feature names, where the feature module provides them
-        from models.box_features import feature_name
+        from impactnet.models.geometry.box_features import feature_name
 
         out["feature_a_name"] = str(feature_name(int(contacts.feature_a[i])))
         out["feature_b_name"] = str(feature_name(int(contacts.feature_b[i])))
@@ -122,22 +105,23 @@ def contact_row_to_json(contacts, i: int) -> dict:
 # `run(args) -> int`. Those modules import nothing heavy at module level (checked by the CLI
 # tests), so building the parser stays instant; the work itself imports lazily.
 _DELEGATED = {
-    "serve": ("service.cli", "serve the HTTP/JSON contact service (default: the quay_crane "
+    "serve": ("impactnet.service.cli", "serve the HTTP/JSON contact service (default: the "
+                                       "quay_crane "
                              "scene on 127.0.0.1:8000)"),
-    "datagen": ("training.datagen_cli",
+    "datagen": ("impactnet.training.data.cli",
                 "generate labelled first-contact datasets for the pairs of a scene"),
-    "bench": ("training.bench_cli",
+    "bench": ("impactnet.training.bench.cli",
               "speed and accuracy of every method on the same poses ('bench exact': the exact "
               "solver against python-fcl)"),
-    "train": ("training.train_cli",
+    "train": ("impactnet.training.jobs.cli",
               "train the learned predictors of a scene's pairs into a bundle"),
-    "evaluate": ("training.evaluate_cli",
+    "evaluate": ("impactnet.training.evaluate.cli",
                  "measure every predictor of a bundle on a held-out test set against the goals "
                  "of issue 4 (Markdown report, JSON, PNG plots)"),
-    "sweep": ("training.sweep_cli",
+    "sweep": ("impactnet.training.sweep.cli",
               "multi-objective hyper-parameter sweep with Optuna (error against measured cost; "
               "SQLite or PostgreSQL storage, resumable by name)"),
-    "reproduce-paper": ("training.reproduce_paper_cli",
+    "reproduce-paper": ("impactnet.training.paper.cli",
                         "reproduce the paper's Tables 1 and 2 and Figures 5 and 6"),
 }
 
@@ -166,17 +150,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"impactnet {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    for name, help_text in [
-    ]:
-        p = sub.add_parser(name, help=help_text, description=help_text)
-        p.set_defaults(handler=_not_implemented(name))
-
     _add_delegated(sub)
 
     contact = sub.add_parser(
         "contact",
         help="one exact box-box contact, printed as JSON",
-        description="Contact of two boxes by the exact solver (models.exact.box_box), as JSON. "
+        description="Contact of two boxes by the exact solver "
+                    "(impactnet.models.box.exact.box_box), as JSON. "
                     "Units: metres; size = full edge lengths; quaternion = [w, x, y, z] "
                     "(normalised on input); the normal points from A towards B. Defaults: two "
                     "cubes of edge 2, B on A's top face, 5 cm deep, tilted by 0.05 rad.",
@@ -197,12 +177,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    # Subcommands that do not exist yet take any arguments, so that they always answer with the
-    # issue that brings them; every other subcommand parses strictly.
-    args, unknown = parser.parse_known_args(argv)
-    if unknown and not getattr(args.handler, "pending", False):
-        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+    args = build_parser().parse_args(argv)
     return args.handler(args)
 
 

@@ -9,7 +9,7 @@ Codes
 ``contact_type_code`` indexes :data:`CONTACT_TYPES` (0 = no contact). ``axis`` is the
 separating-axis index: 0-2 face normal i of A, 3-5 face normal j of B, ``6 + 3 i + j`` the
 cross product of A's edge direction i with B's edge direction j. Features use the unified ids
-of :mod:`models.box_features` (faces 0-5, edges 6-17, vertices 18-25, -1 none).
+of :mod:`impactnet.models.geometry.box_features` (faces 0-5, edges 6-17, vertices 18-25, -1 none).
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ NONE, VERTEX_FACE, FACE_VERTEX, EDGE_EDGE, EDGE_FACE, FACE_EDGE, FACE_FACE = ran
 #: The rule that defines ``point`` and its version, reported by the service's ``GET /v1/models``
 #: under ``conventions`` so that a client can check what it gets (CHANGELOG.md). Version 1 was
 #: the depth-weighted mean of the manifold's vertices; version 2 is the centre of pressure of the
-#: overlap footprint (DESIGN.md, :mod:`models.manifold`).
+#: overlap footprint (DESIGN.md, :mod:`impactnet.models.box.manifold`).
 POINT_RULE = "centre-of-pressure"
 POINT_RULE_VERSION = 2
 
@@ -60,7 +60,8 @@ class Contacts:
     contact_type_code : ndarray of int8, shape (n,)
         Index into :data:`CONTACT_TYPES`.
     feature_a, feature_b : ndarray of int8, shape (n,)
-        Unified feature ids (see :mod:`models.box_features`) of A and B; -1 when separated.
+        Unified feature ids (see :mod:`impactnet.models.geometry.box_features`) of A and B; -1 when
+        separated.
     axis : ndarray of int8, shape (n,)
         Separating-axis index of the contact normal (see module docstring).
     manifold_points : ndarray of float64, shape (n, 8, 3)

@@ -1,12 +1,14 @@
 """One entry point for every predictor: :func:`load_predictor`.
 
 ``load_predictor(name, bundle=None)`` returns a callable with
-:func:`models.exact.box_box`'s signature that returns `Contacts` with ``confidence`` and
+:func:`impactnet.models.box.exact.box_box`'s signature that returns `Contacts` with ``confidence``
+and
 ``predictor`` filled. Names: ``exact`` (the SAT solver, no bundle needed), ``single``,
 ``committee``, ``auto`` (learned, from a bundle: a folder path or a loaded
-:class:`models.bundles.Bundle`; None = the shipped default bundle, :data:`DEFAULT_BUNDLE`).
+:class:`impactnet.models.bundle.format.Bundle`; None = the shipped default bundle,
+:data:`DEFAULT_BUNDLE`).
 A folder may be a plain bundle or a bundle store, which reads its ``current`` version
-(:func:`models.bundle_store.resolve_bundle`).
+(:func:`impactnet.models.bundle.store.resolve_bundle`).
 """
 from __future__ import annotations
 
@@ -15,13 +17,18 @@ from pathlib import Path
 
 import numpy as np
 
-from models.bundle_store import resolve_bundle
-from models.bundles import Bundle, BundleError, read_bundle
-from models.contacts import Contacts
-from models.exact import box_box
-from models.learned import AutoPredictor, CommitteePredictor, LearnedPredictor, SinglePredictor
-from models.learned_one import Prediction
-from models.pair_dispatch import UnsupportedPairError
+from impactnet.models.box.exact import box_box
+from impactnet.models.bundle.format import Bundle, BundleError, read_bundle
+from impactnet.models.bundle.store import resolve_bundle
+from impactnet.models.contacts import Contacts
+from impactnet.models.learned.batch import (
+    AutoPredictor,
+    CommitteePredictor,
+    LearnedPredictor,
+    SinglePredictor,
+)
+from impactnet.models.learned.one_pair import Prediction
+from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 
 #: The bundle of the default scene, shipped in the repository.
 DEFAULT_BUNDLE = Path(__file__).resolve().parent / "bundles" / "quay_crane"
@@ -59,7 +66,7 @@ def load_predictor(name: str = "auto", bundle: str | os.PathLike | Bundle | None
     ------
     ValueError
         Unknown name.
-    models.bundles.BundleError
+    impactnet.models.bundle.format.BundleError
         The bundle is missing, altered or malformed (a learned name without a bundle and no
         shipped default is reported the same way, naming the folder looked at).
     """

@@ -24,7 +24,8 @@ marked optional, and any other key is an error::
 
 "Shortest edge" of a pair is the shortest edge of either body (:meth:`Scene.smaller_shortest_edge`):
 never longer than the smaller body's shortest edge (tolerances from it are never looser), and
-the length by which :func:`training.poses.first_contact_poses` scales its push depths.
+the length by which :func:`impactnet.models.geometry.poses.first_contact_poses` scales its push
+depths.
 
 Validation raises :class:`SceneError` (a ``ValueError``) naming the file and the field, e.g.
 ``scenes/x.toml: pairs[2].b: unknown body 'container45'``.

@@ -1,4 +1,4 @@
-"""The HTTP service: FastAPI app (``service.app.create_app``), schemas, settings, client.
+"""The HTTP service: FastAPI app (``impactnet.service.app.create_app``), schemas, settings, client.
 
 Layout: ``settings`` (one BaseSettings, ``IMPACTNET_*``), ``schemas`` (pydantic request /
 response models), ``routers/`` (contact, batch, models, health, metrics, admin),

@@ -1,4 +1,5 @@
-"""``python -m service``: the same as ``impactnet serve`` (see :mod:`service.cli`)."""
-from service.cli import main
+"""``python -m impactnet.service``: the same as ``impactnet serve`` (see
+:mod:`impactnet.service.cli`)."""
+from impactnet.service.cli import main
 
 raise SystemExit(main())

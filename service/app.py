@@ -1,10 +1,10 @@
 """``create_app(settings)``: the FastAPI application of impactnet.
 
 Lifespan: the scene, the learned bundle (checksums, scene hash, smoke test) and the predictors
-are loaded and warmed up in a worker thread (:mod:`service.state`), in the background by
+are loaded and warmed up in a worker thread (:mod:`impactnet.service.state`), in the background by
 default, so /healthz answers at once and /readyz says 503 until the state is installed;
 leaving the lifespan (shutdown) turns /readyz to 503 again. The admin reload route
-(:mod:`service.routers.admin`) is included only when an admin token is configured.
+(:mod:`impactnet.service.api.routers.admin`) is included only when an admin token is configured.
 """
 from __future__ import annotations
 
@@ -16,15 +16,15 @@ from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 
 from impactnet import __version__
-from service import errors
-from service.body import BodyReader
-from service.middleware import ConcurrencyLimit, RequestContext
-from service.predictors import ServingState
-from service.reload import Reloader
-from service.routers import admin, batch, contact, health, metrics, models
-from service.runtime import Runtime
-from service.schemas import BatchRequest, ContactRequest, ReloadRequest
-from service.settings import Settings
+from impactnet.service.api import errors
+from impactnet.service.api.middleware import ConcurrencyLimit, RequestContext
+from impactnet.service.api.routers import admin, batch, contact, health, metrics, models
+from impactnet.service.api.schemas import BatchRequest, ContactRequest, ReloadRequest
+from impactnet.service.limits.body import BodyReader
+from impactnet.service.predictors import ServingState
+from impactnet.service.reload import Reloader
+from impactnet.service.runtime import Runtime
+from impactnet.service.settings import Settings
 
 log = logging.getLogger("impactnet.service")
 

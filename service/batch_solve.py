@@ -1,7 +1,8 @@
 """A batch solved in chunks, straight into the answer's arrays, within the request's memory lease.
 
 The predictors answer N pairs at once, but their working set grows with N (temporaries of the
-separating-axis test, the clip, the experts, and the full :class:`models.contacts.Contacts`):
+separating-axis test, the clip, the experts, and the full
+:class:`impactnet.models.contacts.Contacts`):
 up to ~3.3 KB per pair in mode ``exact`` and ~1.8 KB in ``auto``, against the answer's 70-360
 bytes per pair. So the pairs are solved :data:`CHUNK_ROWS` at a time, and each chunk's answer is
 written into arrays allocated once for the whole batch (:data:`ANSWER_LAYOUT`): the batch
@@ -14,10 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from service.budget import Lease
-from service.errors import UnsupportedPair
-from service.pairs import paper_angles, predict_checked
-from service.predictors import PairInputs, Predictor
+from impactnet.service.api.errors import UnsupportedPair
+from impactnet.service.codecs.pairs import paper_angles, predict_checked
+from impactnet.service.limits.budget import Lease
+from impactnet.service.predictors import PairInputs, ServedMode
 
 #: Rows per predictor call. The chunk's working set (below) stays ~16 MiB, and the per-call cost
 #: of the predictors (~0.1 ms) stays far below a chunk's solve (~5-15 ms).
@@ -105,7 +106,7 @@ def _fill(out: dict, contacts, pairs: PairInputs, start: int, stop: int) -> None
         out["paper_angles"][start:stop] = paper_angles(contacts, pairs)
 
 
-def solve_batch(predictor: Predictor, pairs: PairInputs, include, lease: Lease) -> dict:
+def solve_batch(predictor: ServedMode, pairs: PairInputs, include, lease: Lease) -> dict:
     """The answer's arrays (:data:`ANSWER_LAYOUT`, plus ``predictor_names``) for all pairs.
 
     Raises UnsupportedPair (422) naming every unsupported row of a strict learned mode,
@@ -115,7 +116,7 @@ def solve_batch(predictor: Predictor, pairs: PairInputs, include, lease: Lease) 
     lease.reserve(answer_bytes(n, include) + min(n, CHUNK_ROWS) * SOLVE_BYTES_PER_ROW,
                   f"solving {n} pairs")
     out = {k: np.empty((n, *shape), dtype) for k, (dtype, shape, _) in _layout(include).items()}
-    names, unsupported = _Predictors(), []
+    names, unsupported, covered = _Predictors(), [], []
     for start in range(0, n, CHUNK_ROWS):
         stop = min(n, start + CHUNK_ROWS)
         chunk = _chunk(pairs, start, stop) if (start, stop) != (0, n) else pairs
@@ -123,12 +124,12 @@ def solve_batch(predictor: Predictor, pairs: PairInputs, include, lease: Lease) 
             contacts = predict_checked(predictor, chunk, batch=True, offset=start)
         except UnsupportedPair as exc:  # go on: the error names every such row
             unsupported += exc.rows
+            covered = exc.covered
             continue
         if not unsupported:
             _fill(out, contacts, chunk, start, stop)
             out["predictor_code"][start:stop] = names.codes(contacts.predictor)
     if unsupported:
-        raise UnsupportedPair(predictor.name, unsupported, getattr(predictor, "covered", ()),
-                              True)
+        raise UnsupportedPair(predictor.name, unsupported, covered, True)
     out["predictor_names"] = names.finish(out["predictor_code"])
     return out

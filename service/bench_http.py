@@ -1,13 +1,13 @@
 """HTTP benchmark of the service on loopback (a script, not a test).
 
-    python -m service.bench_http [--quick] [--json PATH] [--access-log] [--mode M]
+    python -m impactnet.service.bench_http [--quick] [--json PATH] [--access-log] [--mode M]
                                  [--bundle PATH]
 
 (Run it as a module: ``python service/bench_http.py`` would put service/ first on sys.path,
-where service/logging.py shadows the standard library's logging.)
+where service/log_setup.py shadows the standard library's logging.)
 
 One uvicorn worker per server process, started here on free loopback ports; one keep-alive
-client (:class:`service.client.ImpactClient`, the simulator's client) issues requests one
+client (:class:`impactnet.service.client.ImpactClient`, the simulator's client) issues requests one
 after another. Measured in the same run:
 
 * floor: a bare ASGI echo app on the same uvicorn (same event loop and HTTP parser, no
@@ -39,7 +39,7 @@ for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402 - after pinning the BLAS thread count
 
-from service.client import ImpactClient  # noqa: E402
+from impactnet.service.client import ImpactClient  # noqa: E402
 
 PAIR = {"a": {"object": "cube", "position": [0.0, 0.0, 0.0], "quaternion": [1.0, 0, 0, 0]},
         "b": {"object": "cube", "position": [0.5, 0.3, 1.95], "euler": [0.05, 0.0, 0.0]}}
@@ -156,7 +156,7 @@ def run(quick: bool = False, json_path: str | None = None, access_log: bool = Fa
     repeats = 2 if quick else 5
     n_batch = 100_000
     echo_port, service_port = _free_port(), _free_port()
-    service_args = ["-m", "service", "--port", str(service_port), "--default-mode", mode]
+    service_args = ["-m", "impactnet.service", "--port", str(service_port), "--default-mode", mode]
     if bundle is not None:
         service_args += ["--bundle", bundle]
     if not access_log:  # access lines are info: with them on, keep the info level
@@ -167,13 +167,14 @@ def run(quick: bool = False, json_path: str | None = None, access_log: bool = Fa
                "platform": platform.platform(), "load_avg_1m": os.getloadavg()[0]}
     results: dict = {"access_log": access_log, "mode": mode, "machine": machine}
 
-    from models.exact import box_box
+    from impactnet.models.box.exact import box_box
 
     results["solver_only_100k"] = _timed(lambda: box_box(*(columns[k] for k in (
         "a_size", "a_position", "a_quaternion", "b_size", "b_position", "b_quaternion"))),
         repeats)
 
-    with _process(["-c", f"from service.bench_http import _serve_echo; _serve_echo({echo_port})"],
+    with _process(["-c", f"from impactnet.service.bench_http import _serve_echo; "
+                         f"_serve_echo({echo_port})"],
                   echo_port, "/"), \
             _process(service_args, service_port, "/readyz"):
         echo = ImpactClient(f"http://127.0.0.1:{echo_port}")
@@ -242,7 +243,7 @@ def _report(r: dict, n_batch: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m service.bench_http",
+    parser = argparse.ArgumentParser(prog="python -m impactnet.service.bench_http",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="fewer requests (a smoke run)")
     parser.add_argument("--json", metavar="PATH", help="also write the results as JSON")

@@ -3,7 +3,8 @@
 Nothing heavy is imported at module level (``impactnet --help`` stays instant): uvicorn and
 the app are imported inside :func:`run`. The scene and the bundle are loaded (checksums,
 scene hash, smoke test) before the port is bound: a failure exits with status 2. Flags
-override ``IMPACTNET_*`` environment variables (see :class:`service.settings.Settings`); the
+override ``IMPACTNET_*`` environment variables (see :class:`impactnet.service.settings.Settings`);
+the
 admin token is read from the environment only (a flag would show in ``ps``).
 
 Shutdown: the first SIGTERM / SIGINT turns /readyz to 503 at once and every answer says
@@ -24,7 +25,7 @@ EXIT_CONFIG = 2
 #: multi-threaded BLAS inside concurrent requests oversubscribes the cores, and its threads
 #: spin: on a busy 2-core machine the learned predictors' float32 matmuls ran 5-20x slower
 #: with OpenBLAS's default thread count. Effective only before NumPy is first imported,
-#: which :func:`run` ensures for ``impactnet serve`` and ``python -m service``.
+#: which :func:`run` ensures for ``impactnet serve`` and ``python -m impactnet.service``.
 THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
               "NUMEXPR_NUM_THREADS")
 
@@ -67,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def settings_from(args: argparse.Namespace):
-    from service.settings import Settings
+    from impactnet.service.settings import Settings
 
     overrides = {dest: getattr(args, dest, None) for _, dest, _, _ in _FLAGS}
     overrides["access_log"] = getattr(args, "access_log", None)
@@ -88,11 +89,11 @@ def run(args: argparse.Namespace) -> int:
 
     import uvicorn
 
-    from service import logging as service_logging
-    from service.app import create_app
-    from service.scene import SceneLoadError
-    from service.server import Server
-    from service.state import LoadError, build_state
+    from impactnet.service import log_setup as service_logging
+    from impactnet.service.app import create_app
+    from impactnet.service.scene import SceneLoadError
+    from impactnet.service.server import Server
+    from impactnet.service.state import LoadError, build_state
 
     try:  # fail fast, before binding: scene, bundle (checksums, scene hash, smoke test)
         state = build_state(settings)
@@ -116,8 +117,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m service``: the same as ``impactnet serve``."""
-    parser = argparse.ArgumentParser(prog="python -m service",
+    """``python -m impactnet.service``: the same as ``impactnet serve``."""
+    parser = argparse.ArgumentParser(prog="python -m impactnet.service",
                                      description="Serve impactnet over HTTP.")
     add_arguments(parser)
     return run(parser.parse_args(argv))

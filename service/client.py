@@ -1,6 +1,6 @@
 """A small client for a simulator process: one keep-alive connection, standard library + NumPy.
 
-    from service.client import ImpactClient
+    from impactnet.service.client import ImpactClient
 
     with ImpactClient("http://127.0.0.1:8000") as client:
         c = client.contact(a={"object": "container40", "position": [0, 0, 0],
@@ -33,7 +33,7 @@ except ImportError:  # pragma: no cover
 
 JSON = "application/json"
 NPZ = "application/x-npz"
-#: models.contacts.CONTACT_TYPES, repeated so that the client needs only NumPy.
+#: impactnet.models.contacts.CONTACT_TYPES, repeated so that the client needs only NumPy.
 CONTACT_TYPES = ("none", "vertex-face", "face-vertex", "edge-edge", "edge-face", "face-edge",
                  "face-face")
 

@@ -72,7 +72,8 @@ class Metrics:
         self._auto_pairs = self._auto_fallbacks = 0
 
     def bind_budget(self, budget) -> None:
-        """Export ``budget`` (a :class:`service.budget.MemoryBudget`), read at scrape time."""
+        """Export ``budget`` (a :class:`impactnet.service.limits.budget.MemoryBudget`), read at
+        scrape time."""
         self.budget_limit.set(budget.limit)
         self.budget_used.set_function(lambda: budget.used)
         self.budget_peak.set_function(lambda: budget.peak)

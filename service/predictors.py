@@ -1,14 +1,19 @@
 """Predictors by mode, and the immutable serving state that a request reads once.
 
 Modes: ``exact`` (the SAT solver, always there), ``single``, ``committee``, ``auto`` (learned,
-from a bundle: :class:`LearnedModePredictor` wraps :func:`models.load_predictor`'s predictors;
-:mod:`service.state` builds them). A mode that cannot answer raises
-:class:`service.errors.ModeUnavailable` (409: nothing serves it); a strict learned mode on a
-pair its bundle does not cover raises :class:`models.pair_dispatch.UnsupportedPairError`
-(422 ``unsupported_pair``, see :func:`service.pairs.predict_checked`). Never a 500 and never a
+from a bundle); :class:`ServedMode` wraps each of :func:`impactnet.models.load_predictor`'s
+predictors;
+:mod:`impactnet.service.state` builds them). A mode that cannot answer raises
+:class:`impactnet.service.api.errors.ModeUnavailable` (409: nothing serves it); a strict learned
+mode on a
+pair its bundle does not cover raises
+:class:`impactnet.models.learned.pair_dispatch.UnsupportedPairError`
+(422 ``unsupported_pair``, see :func:`impactnet.service.codecs.pairs.predict_checked`). Never a 500
+and never a
 silent substitute.
 
-Atomic swaps: a request takes ``app.state.serving`` once (:func:`service.deps.get_serving`) and
+Atomic swaps: a request takes ``app.state.serving`` once
+(:func:`impactnet.service.api.deps.get_serving`) and
 uses that :class:`ServingState` to the end, so an admin reload that builds a new state beside
 the old one and replaces the reference never mixes two model versions in one answer.
 """
@@ -16,20 +21,19 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 
 from impactnet import __version__
-from models.contacts import Contacts
-from models.exact import box_box
-from models.pair_dispatch import UnsupportedPairError
-from service.errors import ModeUnavailable
-from service.scene import SceneView
+from impactnet.models.contacts import Contacts
+from impactnet.models.learned.pair_dispatch import UnsupportedPairError
+from impactnet.models.predictors import PREDICTOR_NAMES
+from impactnet.service.api.errors import ModeUnavailable
+from impactnet.service.scene import SceneView
 
-#: Every mode the API knows; which of them this server can serve is in ServingState.
-KNOWN_MODES = ("exact", "single", "committee", "auto")
-LEARNED_MODES = ("single", "committee", "auto")
+#: The learned modes (every mode the API knows is models.predictors.PREDICTOR_NAMES; which of
+#: them this server can serve is in ServingState).
+LEARNED_MODES = tuple(m for m in PREDICTOR_NAMES if m != "exact")
 NO_BUNDLE_REASON = ("no learned bundle is loaded (start the server with --bundle PATH, or "
                     "ship models/bundles/<scene>); use mode 'exact'")
 
@@ -51,41 +55,20 @@ class PairInputs:
         return int(self.position_a.shape[0])
 
 
-class Predictor(Protocol):
-    """What a mode's predictor offers: N pairs in, N contacts out (batch of 1 is a batch)."""
-
-    name: str  # e.g. "exact"; Contacts.predictor names who answered each row
-
-    def predict(self, pairs: PairInputs) -> Contacts: ...
-
-
-class ExactPredictor:
-    """The exact solver; it covers every pair, named or raw."""
-
-    name = "exact"
-
-    def predict(self, pairs: PairInputs) -> Contacts:
-        if len(pairs) == 1:  # plain-float fast path of models.exact
-            return box_box(pairs.size_a[0], pairs.position_a[0], pairs.quaternion_a[0],
-                           pairs.size_b[0], pairs.position_b[0], pairs.quaternion_b[0])
-        return box_box(pairs.size_a, pairs.position_a, pairs.quaternion_a, pairs.size_b,
-                       pairs.position_b, pairs.quaternion_b)
-
-
-class LearnedModePredictor:
-    """A learned mode (a predictor of :func:`models.load_predictor`) behind this interface.
+class ServedMode:
+    """One mode's predictor (one of :func:`impactnet.models.load_predictor`'s, the exact solver
+    included) behind the service's interface: N validated pairs in, N contacts out.
 
     ``Contacts.predictor`` names who answered each row: the mode itself, or in ``auto``
-    "committee" / "exact" (fallback). ``covered``: the bundle pairs this mode has models for.
+    "committee" / "exact" (fallback). One pair takes the predictors' plain-float N = 1 path.
     """
 
     def __init__(self, mode: str, model) -> None:
-        self.name = mode
-        self.model = model
-        self.covered = tuple(p.key for p in model.pairs if p.supports(mode))
+        self.name = mode  # e.g. "exact"
+        self.model = model  # a callable with box_box's signature
 
     def predict(self, pairs: PairInputs) -> Contacts:
-        if len(pairs) == 1:  # the plain-float N = 1 path of the learned predictors
+        if len(pairs) == 1:
             return self.model(pairs.size_a[0], pairs.position_a[0], pairs.quaternion_a[0],
                               pairs.size_b[0], pairs.position_b[0], pairs.quaternion_b[0])
         return self.model(pairs.size_a, pairs.position_a, pairs.quaternion_a, pairs.size_b,
@@ -97,15 +80,14 @@ class ServingState:
     """Everything a request needs, fixed for the state's lifetime."""
 
     scene: SceneView  # bodies a request may name
-    predictors: dict[str, Predictor]  # mode -> predictor, for the modes that can answer
+    predictors: dict[str, ServedMode]  # mode -> predictor, for the modes that can answer
     unavailable: dict[str, str]  # mode -> why it cannot answer
     model_version: str  # the bundle's version, or the exact solver's; in every response
     default_mode: str = "exact"  # mode of requests that name none; always one it serves
     bundle: dict | None = None  # description of the learned bundle (GET /v1/models) or None
-    scene_note: str | None = None  # why the configured scene is not loaded, if it is not
     loaded_at: float = field(default_factory=time.time)  # UNIX seconds
 
-    def predictor(self, mode: str) -> Predictor:
+    def predictor(self, mode: str) -> ServedMode:
         """The predictor of ``mode``; raises ModeUnavailable (409) naming the reason."""
         found = self.predictors.get(mode)
         if found is None:
@@ -114,7 +96,7 @@ class ServingState:
 
     @property
     def modes(self) -> list[str]:
-        return [m for m in KNOWN_MODES if m in self.predictors]
+        return [m for m in PREDICTOR_NAMES if m in self.predictors]
 
     @property
     def bundle_path(self) -> str | None:

@@ -1,17 +1,20 @@
 """Admin reload of the learned bundle: built beside the serving one, checked, then swapped.
 
 :meth:`Reloader.reload` runs in a worker thread (the event loop keeps answering) and takes
-these steps; the first that fails ends the reload with :class:`service.errors.ReloadFailed`
+these steps; the first that fails ends the reload with
+:class:`impactnet.service.api.errors.ReloadFailed`
 naming it, and the state that was serving keeps serving, untouched:
 
 1. ``resolve``: the folder: the one the request names (relative paths from the server's
    working directory), or the configured one (``settings.bundle``, else the scene's shipped
    bundle); 409 when the server is not ready or has no bundle path to re-read.
-2. ``read``, ``scene_hash``, ``build``, ``smoke``: as at startup (:mod:`service.state`): the
+2. ``read``, ``scene_hash``, ``build``, ``smoke``: as at startup (:mod:`impactnet.service.state`):
+the
    checksums are verified, the bundle must be built for the served scene (the scene is
    kept), every learned mode is built, and the smoke test runs against the exact solver.
 3. ``warm_up``: every predictor of the new state answers once.
-4. ``install``: :meth:`service.runtime.Runtime.install`, one reference assignment. A request
+4. ``install``: :meth:`impactnet.service.runtime.Runtime.install`, one reference assignment. A
+request
    that read the old state finishes with it; every later request reads the new one.
 
 Reloads are serialised by a lock: a second one waits for the first, then builds on the
@@ -30,10 +33,10 @@ import threading
 import time
 from pathlib import Path
 
-from service.errors import ReloadFailed
-from service.predictors import warm_up
-from service.runtime import Runtime
-from service.state import LoadError, configured_bundle, state_for
+from impactnet.service.api.errors import ReloadFailed
+from impactnet.service.predictors import warm_up
+from impactnet.service.runtime import Runtime
+from impactnet.service.state import LoadError, configured_bundle, state_for
 
 log = logging.getLogger("impactnet.service")
 
@@ -90,7 +93,7 @@ class Reloader:
             raise ReloadFailed(409, "resolve", "no bundle path is configured and none was "
                                'given; send {"bundle": "<folder>"}', None, serving)
         try:
-            new = state_for(old.scene, path, runtime.settings, old.scene_note, self._at)
+            new = state_for(old.scene, path, runtime.settings, on_step=self._at)
             self._at("warm_up")
             warm_up(new)
         except LoadError as exc:

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from starlette.types import ASGIApp, Scope, Send
 
-from service.errors import error_body
-from service.runtime import Runtime
+from impactnet.service.api.errors import error_body
+from impactnet.service.runtime import Runtime
 
 _JSON_HEADERS = [(b"content-type", b"application/json")]
 
@@ -27,7 +27,7 @@ def header(scope: Scope, name: bytes) -> bytes | None:
 
 async def send_error(send: Send, status: int, error: str, message: str,
                      headers: list[tuple[bytes, bytes]] | None = None) -> None:
-    """Answer with the JSON error envelope (:func:`service.errors.error_body`)."""
+    """Answer with the JSON error envelope (:func:`impactnet.service.api.errors.error_body`)."""
     body = error_body(status, error, message)
     await send({"type": "http.response.start", "status": status,
                 "headers": _JSON_HEADERS + [(b"content-length", str(len(body)).encode())]

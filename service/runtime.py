@@ -2,7 +2,7 @@
 
 Readiness: not ready until the state is loaded and warmed up (:meth:`Runtime.load`), not ready
 again from the moment a shutdown begins (:meth:`Runtime.begin_drain`, called on SIGTERM by
-:class:`service.cli.Server` before uvicorn stops accepting, and by the lifespan's exit).
+:class:`impactnet.service.cli.Server` before uvicorn stops accepting, and by the lifespan's exit).
 """
 from __future__ import annotations
 
@@ -12,13 +12,13 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from importlib.metadata import PackageNotFoundError, version
 
-from service.budget import MemoryBudget
-from service.metrics import Metrics
-from service.predictors import ServingState, warm_up
-from service.saturation import Saturation
-from service.settings import Settings
-from service.state import build_state
-from service.uploads import Uploads
+from impactnet.service.limits.budget import MemoryBudget
+from impactnet.service.limits.saturation import Saturation
+from impactnet.service.limits.uploads import Uploads
+from impactnet.service.metrics import Metrics
+from impactnet.service.predictors import ServingState, warm_up
+from impactnet.service.settings import Settings
+from impactnet.service.state import build_state
 
 log = logging.getLogger("impactnet.service")
 
@@ -43,13 +43,13 @@ class Runtime:
         self.warm = False  # the current state passed warm-up
         self.draining = False
         self.load_error: str | None = None
-        self.started_at = time.time()
         self.versions = package_versions()
         self.saturation = Saturation(settings.saturation_ready_s)
         self.budget = MemoryBudget(settings.memory_budget_bytes, settings.memory_wait_s,
                                    settings.retry_after_s, on_refusal=self._memory_refused)
         self.metrics.bind_budget(self.budget)
-        self.uploads = Uploads(settings.body_timeout_s)  # bodies being read (service.body)
+        # bodies being read (impactnet.service.limits.body)
+        self.uploads = Uploads(settings.body_timeout_s)
         # Batches are solved here, max_batch_workers at a time (threads start on demand).
         self.batch_pool = ThreadPoolExecutor(settings.max_batch_workers,
                                              thread_name_prefix="impactnet-batch")
@@ -116,5 +116,4 @@ class Runtime:
                                  "scene": state.scene.name, "modes": state.modes,
                                  "bundle": state.bundle_path,
                                  "default_mode": state.default_mode,
-                                 "scene_note": state.scene_note,
                                  "seconds": round(time.perf_counter() - started, 3)})

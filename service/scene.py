@@ -1,6 +1,7 @@
 """The scene as the service sees it: object names -> box sizes, looked up without Python loops.
 
-Wraps :func:`models.scenes.load_scene` (``Scene.name``, ``Scene.bodies``: Body(name, size),
+Wraps :func:`impactnet.models.scenes.load_scene` (``Scene.name``, ``Scene.bodies``: Body(name,
+size),
 ``Scene.pairs``: BodyPair(a, b), ``Scene.hash()``). A server started without a scene
 (``scene=None``) accepts raw sizes only; a request that names an object then gets a 422 that
 says so.
@@ -11,13 +12,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from impactnet.models.scenes import load_scene
+
 
 class SceneLoadError(RuntimeError):
     """The configured scene cannot be loaded (unknown name, bad file)."""
-
-
-class ScenesUnavailable(SceneLoadError):
-    """This build has no scenes module (``models.scenes``): only raw sizes can be served."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,7 +73,7 @@ def _bodies_of(scene) -> dict:
 
 
 def view_of(scene) -> SceneView:
-    """A :class:`SceneView` of a ``models.scenes.Scene``."""
+    """A :class:`SceneView` of a ``impactnet.models.scenes.Scene``."""
     bodies = _bodies_of(scene)
     names = tuple(sorted(bodies))
     sizes = np.array([np.asarray(bodies[n], dtype=np.float64).reshape(3) for n in names],
@@ -89,18 +88,11 @@ def load_scene_view(name_or_path: str | None) -> SceneView:
 
     Raises
     ------
-    ScenesUnavailable
-        ``models.scenes`` cannot be imported.
     SceneLoadError
         The scene cannot be loaded.
     """
     if not name_or_path:
         return EMPTY_SCENE
-    try:
-        from models.scenes import load_scene
-    except ImportError as exc:
-        raise ScenesUnavailable(f"cannot load scene {name_or_path!r}: models.scenes is not "
-                             f"available ({exc})") from exc
     try:
         scene = load_scene(name_or_path)
     except Exception as exc:  # noqa: BLE001 - any scene error becomes one clear message

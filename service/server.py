@@ -9,7 +9,7 @@ from types import FrameType
 
 import uvicorn
 
-from service.runtime import Runtime
+from impactnet.service.runtime import Runtime
 
 
 class Server(uvicorn.Server):

@@ -1,6 +1,6 @@
 """Service settings: one `BaseSettings`, read from ``IMPACTNET_*`` environment variables.
 
-``impactnet serve`` flags override the environment (see :mod:`service.cli`); tests build a
+``impactnet serve`` flags override the environment (see :mod:`impactnet.service.cli`); tests build a
 ``Settings(...)`` directly. Every default is the safe one: loopback only, bounded bodies,
 batches and concurrency, the admin endpoint off.
 """

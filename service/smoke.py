@@ -3,7 +3,8 @@
 For each pair of the bundle, :func:`smoke_poses` draws ``n`` first-contact poses from a fixed
 seed (the same bundle always meets the same poses): A anywhere near the origin in a uniform
 random orientation, B in a uniform random orientation relative to A, coming in along a
-uniform random direction to first touch (:func:`models.approach.touching_distance`, exact),
+uniform random direction to first touch
+(:func:`impactnet.models.geometry.approach.touching_distance`, exact),
 then pushed in by a depth drawn from the pair's trained range. Every fourth row is given in
 the swapped order (B, A), which the predictors solve swapped and flip back. Then:
 
@@ -15,7 +16,8 @@ the swapped order (B, A), which the predictors solve swapped and flip back. Then
    fraction of the pair's length scale L, the sum of the two boxes' largest half-extents, as
    in the features) on the rows whose point the experts give: both call the row colliding,
    the committee answered it, and the region labeller's unclipped point is not already exact
-   (:func:`models.region_label.unclipped_points`). On the other rows the committee's answer
+   (:func:`impactnet.models.learned.region_label.unclipped_points`). On the other rows the
+   committee's answer
    is the exact labeller's by construction, so they would hide a broken network. The same
    figures are reported for ``single`` (all colliding rows) and ``auto`` without a bound
    (``single`` is the paper's coarse design; ``auto`` replaces the committee's unsure rows by
@@ -31,13 +33,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.approach import touching_distance
-from models.bundles import Bundle
-from models.contacts import Contacts
-from models.exact import box_box
-from models.region_label import unclipped_points
-from models.rotations import quaternion_multiply, quaternion_to_matrix, random_quaternions
-from service.predictors import PairInputs, Predictor
+from impactnet.models.box.exact import box_box
+from impactnet.models.bundle.format import Bundle
+from impactnet.models.contacts import Contacts
+from impactnet.models.geometry.approach import touching_distance
+from impactnet.models.geometry.rotations import (
+    quaternion_multiply,
+    quaternion_to_matrix,
+    random_quaternions,
+)
+from impactnet.models.learned.region_label import unclipped_points
+from impactnet.models.metrics import angle_deg
+from impactnet.service.predictors import PairInputs, ServedMode
 
 #: Seed of the smoke poses (fixed: a bundle's smoke result is reproducible).
 SMOKE_SEED = 20240601
@@ -111,8 +118,7 @@ def agreement(contacts: Contacts, exact: Contacts, scale: float,
     both = contacts.colliding & exact.colliding
     if learned is not None:
         both &= learned
-    cosine = np.clip(np.einsum("ij,ij->i", contacts.normal[both], exact.normal[both]), -1, 1)
-    angle = np.degrees(np.arccos(cosine))
+    angle = angle_deg(contacts.normal[both], exact.normal[both])
     point = np.linalg.norm(contacts.point[both] - exact.point[both], axis=1) / scale
     return {"colliding_agreement": float(np.mean(contacts.colliding == exact.colliding)),
             "normal_median_deg": float(np.median(angle)) if angle.size else 0.0,
@@ -135,7 +141,7 @@ def _check_agreement(figures: dict, limits: SmokeLimits, where: str) -> None:
             f"(maximum {limits.point_median_max:g} L)")
 
 
-def smoke_test(predictors: dict[str, Predictor], bundle: Bundle, n: int,
+def smoke_test(predictors: dict[str, ServedMode], bundle: Bundle, n: int,
                limits: SmokeLimits | None = None) -> dict:
     """Run the smoke test of ``bundle`` on the learned ``predictors`` (mode -> predictor of
     the state being built); returns the figures per pair and mode, raises SmokeTestFailed."""

@@ -3,14 +3,16 @@
 A state is built in named steps, so that a failed start or admin reload says which failed
 (:class:`LoadError` carries the step):
 
-1. ``scene``: the served scene (:func:`service.scene.load_scene_view`); a reload keeps the
+1. ``scene``: the served scene (:func:`impactnet.service.scene.load_scene_view`); a reload keeps the
    scene of the state it replaces.
 2. ``resolve``: the bundle folder: ``settings.bundle`` if set (``"none"`` or ``""``: no
    bundle), else the scene's shipped bundle ``models/bundles/<scene name>`` when that folder
    exists, else no bundle (mode ``exact`` only).
-3. ``read``: :func:`service.bundle_guard.check_bundle_files` first (regular files within size
+3. ``read``: :func:`impactnet.service.limits.bundle_guard.check_bundle_files` first (regular files
+within size
    caps, so that no read can block or run without end), then
-   :func:`models.bundles.read_bundle` verifies the manifest, the file list, every file's size
+   :func:`impactnet.models.bundle.format.read_bundle` verifies the manifest, the file list, every
+   file's size
    and SHA-256, the tensors and the pairs.
 4. ``scene_hash``: the manifest's scene hash must equal the served scene's (a bundle trained
    for other bodies, depth range or accuracy is refused, never half-used).
@@ -18,32 +20,32 @@ A state is built in named steps, so that a failed start or admin reload says whi
    already read); a mode the bundle has no models for is unavailable with the reason. The
    default mode is ``auto`` with a bundle and ``exact`` without, unless configured; it must
    be a served mode.
-6. ``smoke``: :func:`service.smoke.smoke_test` against the exact solver.
+6. ``smoke``: :func:`impactnet.service.smoke.smoke_test` against the exact solver.
 
-The warm-up (:func:`service.predictors.warm_up`) and the install follow in
-:class:`service.runtime.Runtime`. The state's ``model_version`` is the bundle's ``version``
+The warm-up (:func:`impactnet.service.predictors.warm_up`) and the install follow in
+:class:`impactnet.service.runtime.Runtime`. The state's ``model_version`` is the bundle's
+``version``
 (manifest) when a bundle is loaded.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
-from models.bundle_store import resolve_bundle
-from models.bundles import Bundle, BundleError, read_bundle
-from models.pair_dispatch import UNSUPPORTED, PairTable
-from models.predictors import DEFAULT_BUNDLE, load_predictor
-from service.bundle_guard import check_bundle_files
-from service.predictors import (
+from impactnet.models.bundle.format import Bundle, BundleError, read_bundle
+from impactnet.models.bundle.store import resolve_bundle
+from impactnet.models.learned.pair_dispatch import UNSUPPORTED, PairTable
+from impactnet.models.predictors import DEFAULT_BUNDLE, load_predictor
+from impactnet.service.limits.bundle_guard import check_bundle_files
+from impactnet.service.predictors import (
     LEARNED_MODES,
     NO_BUNDLE_REASON,
-    ExactPredictor,
-    LearnedModePredictor,
+    ServedMode,
     ServingState,
     exact_model_version,
 )
-from service.scene import EMPTY_SCENE, ScenesUnavailable, SceneView, load_scene_view
-from service.settings import Settings
-from service.smoke import SmokeTestFailed, smoke_test
+from impactnet.service.scene import SceneView, load_scene_view
+from impactnet.service.settings import Settings
+from impactnet.service.smoke import SmokeTestFailed, smoke_test
 
 #: Where shipped bundles live: ``<BUNDLES_DIR>/<scene name>``.
 BUNDLES_DIR = DEFAULT_BUNDLE.parent
@@ -62,7 +64,7 @@ class LoadError(RuntimeError):
 def configured_bundle(setting: str | None, scene: SceneView) -> Path | None:
     """The bundle folder of the configuration (step ``resolve``), None for no bundle.
 
-    The folder may be a plain bundle or a bundle store (:mod:`models.bundle_store`), whose
+    The folder may be a plain bundle or a bundle store (:mod:`impactnet.models.bundle.store`), whose
     ``current`` version :func:`read_for_scene` reads.
     """
     if setting is None:
@@ -99,11 +101,11 @@ def read_for_scene(path: Path, scene: SceneView) -> Bundle:
 
 
 def learned_predictors(bundle: Bundle) -> tuple[dict, dict[str, str]]:
-    """Step ``build``: (mode -> LearnedModePredictor, mode -> why it is unavailable)."""
+    """Step ``build``: (mode -> ServedMode, mode -> why it is unavailable)."""
     predictors, unavailable = {}, {}
     for mode in LEARNED_MODES:
         try:
-            predictors[mode] = LearnedModePredictor(mode, load_predictor(mode, bundle))
+            predictors[mode] = ServedMode(mode, load_predictor(mode, bundle))
         except BundleError as exc:
             unavailable[mode] = str(exc)
     return predictors, unavailable
@@ -161,16 +163,15 @@ def _no_report(step: str) -> None:
 
 
 def state_for(scene: SceneView, path: Path | None, settings: Settings,
-              scene_note: str | None = None, on_step=_no_report) -> ServingState:
+              on_step=_no_report) -> ServingState:
     """Steps ``read`` to ``smoke`` for ``scene`` and the bundle at ``path`` (None: none);
     ``on_step(name)`` is called as each step begins (a reload reports where it stands)."""
-    predictors: dict = {"exact": ExactPredictor()}
+    predictors: dict = {"exact": ServedMode("exact", load_predictor("exact"))}
     if path is None:
         unavailable = {m: NO_BUNDLE_REASON for m in LEARNED_MODES}
         mode = default_mode(settings.default_mode, predictors, unavailable)
         return ServingState(scene=scene, predictors=predictors, unavailable=unavailable,
-                            model_version=exact_model_version(scene), default_mode=mode,
-                            scene_note=scene_note)
+                            model_version=exact_model_version(scene), default_mode=mode)
     on_step("read")
     bundle = read_for_scene(path, scene)
     on_step("build")
@@ -185,8 +186,7 @@ def state_for(scene: SceneView, path: Path | None, settings: Settings,
                         path) from exc
     info = describe(bundle, path, scene) | {"smoke": report}
     return ServingState(scene=scene, predictors=predictors, unavailable=unavailable,
-                        model_version=bundle.version, default_mode=mode, bundle=info,
-                        scene_note=scene_note)
+                        model_version=bundle.version, default_mode=mode, bundle=info)
 
 
 def build_state(settings: Settings) -> ServingState:
@@ -194,14 +194,10 @@ def build_state(settings: Settings) -> ServingState:
 
     Raises
     ------
-    service.scene.SceneLoadError
+    impactnet.service.scene.SceneLoadError
         The scene cannot be loaded.
     LoadError
         The bundle cannot be served (the step and the reason are in it).
     """
-    note = None
-    try:
-        scene = load_scene_view(settings.scene)
-    except ScenesUnavailable as exc:
-        scene, note = EMPTY_SCENE, str(exc)
-    return state_for(scene, configured_bundle(settings.bundle, scene), settings, note)
+    scene = load_scene_view(settings.scene)
+    return state_for(scene, configured_bundle(settings.bundle, scene), settings)

@@ -36,3 +36,35 @@ def assert_finite(contacts):
     for name, value in contacts.arrays().items():
         if value.dtype.kind == "f":
             assert np.isfinite(value).all(), name
+
+
+#: Labels of :func:`labelled_rows`: the fields of `Contacts` a learned model is trained on.
+LABELS = ("colliding", "point", "normal", "depth", "contact_type_code", "feature_a", "feature_b",
+          "axis", "manifold_count")
+#: Share of rows pulled apart instead of pushed in (rows without contact).
+SEPARATED_SHARE = 0.05
+
+
+def labelled_rows(size_a, size_b, n: int, seed: int) -> dict:
+    """``n`` first contacts of one box pair, labelled by the exact solver, for the tests of the
+    learned side: an equal share of every orientation family of
+    :func:`impactnet.models.geometry.poses.first_contact_poses`, shuffled. Columns: the six
+    inputs (:data:`KEYS`), ``family`` (int8), ``push_depth`` (n,) and :data:`LABELS`."""
+    from impactnet.models.box.exact import box_box
+    from impactnet.models.geometry.poses import ORIENTATIONS, first_contact_poses
+
+    rng = np.random.default_rng(seed)
+    counts = np.diff(np.linspace(0, n, len(ORIENTATIONS) + 1).round().astype(int))
+    parts = []
+    for family, (orientation, count) in enumerate(zip(ORIENTATIONS, counts, strict=True)):
+        poses = first_contact_poses(int(count), np.asarray(size_a, float),
+                                    np.asarray(size_b, float), rng,
+                                    separated_share=SEPARATED_SHARE, orientation=orientation)
+        poses["family"] = np.full(count, family, dtype=np.int8)
+        parts.append(poses)
+    order = rng.permutation(n)
+    rows = {k: np.concatenate([p[k] for p in parts])[order]
+            for k in (*KEYS, "family", "push_depth")}
+    labels = box_box(*(rows[k] for k in KEYS))
+    rows.update({name: getattr(labels, name) for name in LABELS})
+    return rows

@@ -6,20 +6,28 @@ import copy
 
 import numpy as np
 import pytest
-from helpers import KEYS, assert_finite
-from learned_fixtures import PAIRS, bundle_content, with_auto, write_test_bundle
-from test_mlp import random_mlp
 
-import models
-from models import contacts as ct
-from models import predictors as pr
-from models.bundles import BundleError, read_bundle
-from models.contacts import CONTACT_TYPES
-from models.exact import box_box
-from models.pair_dispatch import UnsupportedPairError
-from models.region_label import unclipped_points
-from models.rotations import quaternion_multiply, quaternion_to_matrix, random_quaternions
-from training.datagen import generate_pairs
+from impactnet import models
+from impactnet.models import contacts as ct
+from impactnet.models import predictors as pr
+from impactnet.models.box.exact import box_box
+from impactnet.models.bundle.format import BundleError, read_bundle
+from impactnet.models.contacts import CONTACT_TYPES
+from impactnet.models.geometry.rotations import (
+    quaternion_multiply,
+    quaternion_to_matrix,
+    random_quaternions,
+)
+from impactnet.models.learned.pair_dispatch import UnsupportedPairError
+from impactnet.models.learned.region_label import unclipped_points
+from tests.models.helpers import KEYS, assert_finite, labelled_rows
+from tests.models.learned.learned_fixtures import (
+    PAIRS,
+    bundle_content,
+    with_auto,
+    write_test_bundle,
+)
+from tests.models.learned.test_mlp import random_mlp
 
 NAMES = ("exact", "single", "committee", "auto")
 #: Agreement of two learned answers of the same pose computed along different float paths
@@ -47,7 +55,7 @@ def predictor(request, bundle):
 
 def pair_rows(key, n=600, seed=5, offset=0.0):
     size_a, size_b = PAIRS[key]
-    rows = generate_pairs(size_a, size_b, n, seed=seed, progress=False)
+    rows = labelled_rows(size_a, size_b, n, seed)
     rows["position_a"] = rows["position_a"] + offset
     rows["position_b"] = rows["position_b"] + offset
     return [rows[k] for k in KEYS]
@@ -164,7 +172,8 @@ def test_battery_swapped_pair_is_flipped(predictor):
 def test_committee_labels_are_the_exact_solvers_and_its_point_beats_single(bundle):
     """The committee's colliding flag, type, features, axis and normal are the exact solver's,
     bit for bit (its region classifier is the exact labeller), and so is its depth except on
-    overhanging face contacts (the labeller's SAT overlap, deeper; see models.region_label);
+    overhanging face contacts (the labeller's SAT overlap, deeper; see
+    impactnet.models.learned.region_label);
     its point comes from the experts and is better than the single network's."""
     args = pair_rows("brick/slab", 3000, seed=21)
     exact = box_box(*args)
@@ -229,14 +238,6 @@ def test_load_predictor_errors(tmp_path, monkeypatch, content):
     weights.write_bytes(bytes(data))
     with pytest.raises(BundleError, match="SHA-256"):
         models.load_predictor("auto", folder)
-
-
-def test_exact_predictor_is_box_box():
-    args = pair_rows("cube/cube", 20)
-    c = models.load_predictor("exact")(*args)
-    assert not models.load_predictor("exact").predict(*args).normal_spread.any()
-    np.testing.assert_array_equal(c.point, box_box(*args).point)
-    assert (c.predictor == "exact").all() and (c.confidence == 1).all()
 
 
 def test_invalid_input_raises_as_the_exact_solver(bundle):

@@ -5,7 +5,7 @@ import random
 import numpy as np
 import pytest
 
-from models.scenes import (
+from impactnet.models.scenes import (
     DEFAULT_SCENE,
     SCENES_DIR_ENV,
     Accuracy,

@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from service.app import create_app
-from service.settings import Settings
+from impactnet.service.app import create_app
+from impactnet.service.settings import Settings
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -58,9 +58,10 @@ test_settings.__test__ = False  # a helper, not a test
 
 @pytest.fixture(autouse=True)
 def _restore_thread_env(monkeypatch):
-    """``service.cli.run`` pins BLAS thread counts in ``os.environ``; tests that call it in
+    """``impactnet.service.cli.run`` pins BLAS thread counts in ``os.environ``; tests that call it
+    in
     process must not leave them behind for later tests (monkeypatch restores them)."""
-    from service.cli import THREAD_ENV
+    from impactnet.service.cli import THREAD_ENV
 
     for name in THREAD_ENV:
         monkeypatch.setenv(name, os.environ.get(name, "1"))
@@ -120,17 +121,19 @@ def get(port: int, path: str, timeout: float = 5.0) -> tuple[int, bytes]:
 
 
 class ServerProcess:
-    """``python -m service`` (what ``impactnet serve`` runs) on a free loopback port; with
+    """``python -m impactnet.service`` (what ``impactnet serve`` runs) on a free loopback port; with
     ``--bundle none`` unless ``args`` or ``env`` name a bundle (``bundle_default=True``
-    leaves the shipped default bundle to the server)."""
+    leaves the shipped default bundle to the server). ``command`` replaces ``python -m
+    impactnet.service`` (e.g. an installed ``impactnet serve``)."""
 
     def __init__(self, python: str = sys.executable, args=(), env=None, cwd=REPO,
-                 bundle_default: bool = False) -> None:
+                 bundle_default: bool = False, command=None) -> None:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         if not bundle_default and "--bundle" not in args and "IMPACTNET_BUNDLE" not in (env or {}):
             args = [*args, "--bundle", "none"]
-        cmd = [python, "-m", "service", "--port", str(self.port), *args]
+        launcher = list(command) if command else [python, "-m", "impactnet.service"]
+        cmd = [*launcher, "--port", str(self.port), *args]
         full_env = {**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})}
         # A file, not a pipe: nobody reads a pipe while the server runs, and a full pipe
         # would block the server's logging. O_APPEND: our reads never move its writes.

@@ -1,6 +1,6 @@
 """A scene and tiny learned bundles for the service tests (not a test module).
 
-The bundles are those of ``tests/models/learned_fixtures.py`` (closed-form fitted MLPs for a
+The bundles are those of ``tests/models/learned/learned_fixtures.py`` (closed-form fitted MLPs for a
 brick/slab pair and a cube pair), with the manifest's scene set to :data:`SCENE_TOML`'s name
 and hash, so that the service accepts them. The scene has one more pair, plank/cube, that no
 bundle covers (strict learned modes answer 422 for it, auto falls back to exact).
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from models.scenes import load_scene
-from tests.models.learned_fixtures import bundle_content, write_test_bundle
+from impactnet.models.scenes import load_scene
+from tests.models.learned.learned_fixtures import bundle_content, write_test_bundle
 
 SCENE_TOML = """
 [scene]

@@ -8,8 +8,8 @@ import numpy as np
 import orjson
 import pytest
 
-from models.exact import box_box
-from models.rotations import quaternion_to_matrix, random_quaternions
+from impactnet.models.box.exact import box_box
+from impactnet.models.geometry.rotations import quaternion_to_matrix, random_quaternions
 from tests.service.conftest import assert_error
 
 URL = "/v1/contact/batch"
@@ -267,8 +267,8 @@ def test_json_floats_round_trip_exactly(client):
 def test_a_streamed_json_answer_equals_the_npz_answer(client):
     """More than STREAM_ROWS pairs: the JSON answer is streamed in pieces, solved in chunks of
     CHUNK_ROWS, and carries the same values as the npz answer and the exact solver."""
-    from service.answer_encode import STREAM_ROWS
-    from service.batch_solve import CHUNK_ROWS
+    from impactnet.service.batch_solve import CHUNK_ROWS
+    from impactnet.service.codecs.answer_encode import STREAM_ROWS
 
     n = CHUNK_ROWS + STREAM_ROWS + 17
     columns = poses(n, seed=12)
@@ -294,7 +294,7 @@ def test_a_streamed_json_answer_equals_the_npz_answer(client):
 
 
 def test_json_pieces_are_the_bytes_of_one_orjson_call():
-    from service.answer_encode import CONTACT_NAMES, STREAM_ROWS, encode_json
+    from impactnet.service.codecs.answer_encode import CONTACT_NAMES, STREAM_ROWS, encode_json
 
     rng = np.random.default_rng(0)
     n = 2 * STREAM_ROWS + 5

@@ -1,4 +1,5 @@
-"""service.client.ImpactClient against a real server process (keep-alive, JSON and npz)."""
+"""impactnet.service.client.ImpactClient against a real server process (keep-alive, JSON and
+npz)."""
 from __future__ import annotations
 
 import socket
@@ -6,7 +7,7 @@ import socket
 import numpy as np
 import pytest
 
-from service.client import ImpactClient, ServiceError
+from impactnet.service.client import ImpactClient, ServiceError
 from tests.service.conftest import PAIR
 from tests.service.test_batch import poses
 

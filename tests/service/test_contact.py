@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from models.exact import box_box
-from models.rotations import euler_to_quaternion, quaternion_to_matrix
+from impactnet.models.box.exact import box_box
+from impactnet.models.geometry.rotations import euler_to_quaternion, quaternion_to_matrix
 from tests.service.conftest import PAIR, assert_error, pair
 
 FIELDS = {"colliding", "point", "normal", "depth", "contact_type", "feature_a", "feature_b",
@@ -43,7 +43,7 @@ def test_answer_matches_exact_solver(client):
 
 @pytest.mark.parametrize("convention", ["zyx", "xyz"])
 def test_plain_float_euler_equals_models_rotations(convention):
-    from service.pairs import euler_quaternion
+    from impactnet.service.codecs.pairs import euler_quaternion
 
     angles = np.random.default_rng(0).uniform(-7, 7, size=(500, 3))
     ours = np.array([euler_quaternion(e.tolist(), convention) for e in angles])

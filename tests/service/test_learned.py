@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from models import load_predictor
-from models.rotations import random_quaternions
-from service import cli
-from service.app import create_app
+from impactnet.models import load_predictor
+from impactnet.models.geometry.rotations import random_quaternions
+from impactnet.service import cli
+from impactnet.service.app import create_app
 from tests.service.conftest import ServerProcess, assert_error, test_settings
 from tests.service.learned import corrupt, write_bundle, write_scene
 from tests.service.test_batch import NPZ, as_json, load_npz, npz_bytes
@@ -107,16 +107,25 @@ def test_one_pair_in_each_learned_mode(learned, files, mode):
 
 
 def _one_as_batch(client) -> dict:
-    from service.pairs import euler_quaternion
+    from impactnet.service.codecs.pairs import euler_quaternion
 
     return {"a_object": "brick", "a_position": ON_SLAB["a"]["position"],
             "a_quaternion": euler_quaternion(ON_SLAB["a"]["euler"], "zyx"),
             "b_object": "slab", "b_position": [0, 0, 0], "b_quaternion": [1, 0, 0, 0]}
 
 
-def test_default_mode_is_auto_with_a_bundle(learned):
+def test_default_mode_is_auto_with_a_bundle(learned, files):
     body = learned.post(URL, json=ON_SLAB).json()
-    assert body["mode"] == "auto" and body["predictor"] in ("committee", "exact")
+    assert body["mode"] == "auto"
+    # One answer: what `auto` of the same bundle answers for the same pose, called directly.
+    pair = _one_as_batch(learned)
+    columns = {"a_size": np.array(BRICK), "a_position": np.array(pair["a_position"]),
+               "a_quaternion": np.array(pair["a_quaternion"]), "b_size": np.array(SLAB),
+               "b_position": np.zeros(3), "b_quaternion": np.array([1.0, 0.0, 0.0, 0.0])}
+    direct = _direct("auto", files, columns)
+    assert body["predictor"] == direct.predictor[0]
+    np.testing.assert_allclose(body["point"], direct.point[0], atol=1e-9)
+    np.testing.assert_allclose(body["normal"], direct.normal[0], atol=1e-9)
 
 
 def test_exact_mode_still_served_with_the_bundle_version(learned):
@@ -225,11 +234,11 @@ def test_default_mode_can_be_overridden(files):
 
 
 def test_shipped_bundle_of_the_scene_is_the_default(files, monkeypatch):
-    import service.state
+    import impactnet.service.state
 
     shipped = files["root"] / "shipped"
     write_bundle(shipped / "svc_test", files["scene"], version="svc-shipped")
-    monkeypatch.setattr(service.state, "BUNDLES_DIR", shipped)
+    monkeypatch.setattr(impactnet.service.state, "BUNDLES_DIR", shipped)
     settings = test_settings(scene=str(files["scene"]), bundle=None)
     with TestClient(create_app(settings)) as c:
         assert c.get("/v1/models").json()["model_version"] == "svc-shipped"

@@ -10,8 +10,9 @@ import threading
 import httpx
 import pytest
 
-from service.app import create_app
-from service.predictors import ExactPredictor
+from impactnet.models import load_predictor
+from impactnet.service.app import create_app
+from impactnet.service.predictors import ServedMode
 from tests.service.conftest import PAIR, assert_error, test_settings
 
 
@@ -98,7 +99,7 @@ class _Gate:
             raise RuntimeError("a deliberate bug")
         self.started.set()
         self.release.wait(10)
-        return ExactPredictor().predict(pairs)
+        return ServedMode("exact", load_predictor("exact")).predict(pairs)
 
 
 def _swap_predictor(app, predictor) -> None:
@@ -150,7 +151,7 @@ def test_a_bug_is_a_json_500_with_request_id(make_client, caplog):
 def test_readyz_is_503_while_loading_then_200(monkeypatch):
     from fastapi.testclient import TestClient
 
-    import service.runtime as runtime_module
+    import impactnet.service.runtime as runtime_module
 
     release = threading.Event()
     real = runtime_module.build_state

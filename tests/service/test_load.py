@@ -13,7 +13,7 @@ import numpy as np
 import orjson
 import pytest
 
-from service.client import ImpactClient
+from impactnet.service.client import ImpactClient
 from tests.service.conftest import ServerProcess
 from tests.service.learned import write_bundle, write_scene
 from tests.service.test_learned import ON_SLAB, _mixed

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import re
 
-from models.scenes import load_scene
+from impactnet.models.scenes import load_scene
 from tests.service.conftest import PAIR
 
 
@@ -90,7 +90,7 @@ def test_docs_and_openapi(client):
 
 
 def test_models_names_the_conventions_and_the_point_rule(client):
-    from models.contacts import POINT_RULE, POINT_RULE_VERSION
+    from impactnet.models.contacts import POINT_RULE, POINT_RULE_VERSION
 
     response = client.get("/v1/models")
     assert response.status_code == 200

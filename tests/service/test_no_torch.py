@@ -18,9 +18,10 @@ def test_app_import_and_answer_without_torch():
     out = _run(
         "import sys\n"
         "from fastapi.testclient import TestClient\n"
-        "import service.app, service.client, service.cli, service.columns\n"
-        "from service.settings import Settings\n"
-        "app = service.app.create_app(Settings(load_in_background=False))\n"
+        "import impactnet.service.app, impactnet.service.client, impactnet.service.cli, "
+        "impactnet.service.codecs.columns\n"
+        "from impactnet.service.settings import Settings\n"
+        "app = impactnet.service.app.create_app(Settings(load_in_background=False))\n"
         "with TestClient(app) as c:\n"
         "    r = c.post('/v1/contact', json={'a': {'object': 'cube', 'position': [0, 0, 0],"
         " 'quaternion': [1, 0, 0, 0]}, 'b': {'object': 'cube', 'position': [0, 0, 1.9],"
@@ -32,8 +33,8 @@ def test_app_import_and_answer_without_torch():
 
 def test_cli_module_is_light():
     out = _run("import sys, argparse\n"
-               "import service.cli\n"
-               "service.cli.add_arguments(argparse.ArgumentParser())\n"
+               "import impactnet.service.cli\n"
+               "impactnet.service.cli.add_arguments(argparse.ArgumentParser())\n"
                "print(sorted(m for m in ('numpy', 'fastapi', 'uvicorn', 'pydantic', 'torch')"
                " if m in sys.modules))\n")
     assert out.strip() == "[]"

@@ -1,4 +1,4 @@
-"""A real server process (``python -m service``, what ``impactnet serve`` runs) on a free
+"""A real server process (``python -m impactnet.service``, what ``impactnet serve`` runs) on a free
 loopback port: started, queried, oversize bodies refused unread, SIGTERM -> drain -> graceful
 exit with the in-flight request answered."""
 from __future__ import annotations
@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from service.client import ImpactClient
+from impactnet.service.client import ImpactClient
 from tests.service.conftest import PAIR, ServerProcess, get
 from tests.service.test_batch import poses
 

@@ -10,8 +10,8 @@ import threading
 import pytest
 from fastapi.testclient import TestClient
 
-import service.state
-from service.app import create_app
+import impactnet.service.state
+from impactnet.service.app import create_app
 from tests.service.conftest import assert_error, test_settings
 from tests.service.learned import corrupt, write_bundle, write_scene
 from tests.service.test_learned import ON_SLAB
@@ -179,7 +179,7 @@ def test_bad_reload_bodies(admin, content, headers, status):
 
 def test_reloads_are_serialised(admin, files, monkeypatch):
     active, overlap = [0], []
-    real = service.state.state_for
+    real = impactnet.service.state.state_for
     gate = threading.Lock()
 
     def tracked(*args, **kwargs):
@@ -193,7 +193,7 @@ def test_reloads_are_serialised(admin, files, monkeypatch):
             with gate:
                 active[0] -= 1
 
-    monkeypatch.setattr("service.reload.state_for", tracked)
+    monkeypatch.setattr("impactnet.service.reload.state_for", tracked)
     reloader = admin.app.state.reloader
     results = []
     threads = [threading.Thread(target=lambda p=p: results.append(reloader.reload(str(p))))

@@ -1,6 +1,13 @@
-"""The Docker runtime stage without Docker: wheels of the project (no extras), installed into
-a fresh virtualenv, must serve /readyz and /v1/contact with no torch installed; when the
-repository ships the default scene's bundle, the installed package serves it (mode auto)."""
+"""The wheel, installed as a user installs it, outside the source tree.
+
+* The Docker runtime stage without Docker: wheels of the project (no extras), installed into a
+  fresh virtualenv that already holds unrelated top-level packages named ``models`` and
+  ``service`` (a simulator's own), must serve ``impactnet serve`` -> /readyz and /v1/contact
+  with no torch, with the scene files and the shipped bundle from the wheel, and answer
+  ``impactnet contact``; neither side shadows the other.
+* The wheel is complete: with the training stack importable, ``impactnet bench --quick`` runs
+  from the installed package (``training/bench`` and the scenes are in the wheel).
+"""
 from __future__ import annotations
 
 import json
@@ -8,16 +15,22 @@ import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 import urllib.request
+import zipfile
 
 import pytest
 
 from tests.service.conftest import PAIR, REPO, ServerProcess
 
 # What docker/Dockerfile copies into the build stage.
-COPIED = ["pyproject.toml", "README.md", "impactnet", "models", "training", "service"]
+COPIED = ["pyproject.toml", "setup.py", "README.md", "impactnet", "models", "training",
+          "service", "scenes"]
 # Folders of a bundle store that docker/Dockerfile.dockerignore leaves out of the build context.
 STORE_EXCLUDED = (".cache", "rejected")
+# Unrelated packages a simulator's environment may already hold (the names impactnet's
+# repository folders have); they must neither shadow impactnet nor be shadowed by it.
+FOREIGN_PACKAGES = ("models", "service")
 _IGNORED = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info", "build")
 
 
@@ -35,46 +48,89 @@ def _run(*cmd, **kwargs):
     return result.stdout
 
 
-@pytest.mark.slow
-def test_runtime_install_serves_without_torch(tmp_path):
+@pytest.fixture(scope="module")
+def wheel_dir(tmp_path_factory):
+    """Wheels of the project and its runtime dependencies, built as docker/Dockerfile does."""
+    root = tmp_path_factory.mktemp("wheel")
     copy_lines = [line.split()[1:-1] for line in
                   (REPO / "docker" / "Dockerfile").read_text().splitlines()
                   if line.startswith("COPY ") and "--from" not in line]
-    assert sorted(p for line in copy_lines for p in line if p != "scenes") == sorted(COPIED)
-    src = tmp_path / "src"
-    src.mkdir()
+    assert sorted(p for line in copy_lines for p in line) == sorted(COPIED)
     dockerignore = (REPO / "docker" / "Dockerfile.dockerignore").read_text().splitlines()
     assert all(f"models/bundles/*/{name}" in dockerignore for name in STORE_EXCLUDED)
+    src = root / "src"
+    src.mkdir()
     for path in COPIED:
         if (REPO / path).is_dir():
             shutil.copytree(REPO / path, src / path, ignore=_ignore)
         else:
             shutil.copy2(REPO / path, src / path)
-    shutil.copytree(REPO / "scenes", tmp_path / "scenes")
-
     # RUN pip wheel --wheel-dir /wheels .
-    _run(sys.executable, "-m", "pip", "wheel", "--quiet", "--wheel-dir",
-         str(tmp_path / "wheels"), str(src))
-    # RUN python -m venv /opt/venv && pip install --no-index --find-links /wheels impactnet
+    _run(sys.executable, "-m", "pip", "wheel", "--quiet", "--wheel-dir", str(root / "wheels"),
+         str(src))
+    return root / "wheels"
+
+
+def _fresh_venv(path, wheels):
+    """A virtualenv with the foreign packages, then impactnet from ``wheels`` (no index)."""
+    _run(sys.executable, "-m", "venv", str(path))
+    python = str(path / "bin" / "python")
+    site = _run(python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])").strip()
+    for name in FOREIGN_PACKAGES:
+        os.makedirs(os.path.join(site, name))
+        with open(os.path.join(site, name, "__init__.py"), "w", encoding="utf-8") as f:
+            f.write(f"FOREIGN = {name!r}\n")
+    _run(python, "-m", "pip", "install", "--quiet", "--no-index", "--find-links", str(wheels),
+         "impactnet")
+    return python, site
+
+
+def _env(venv):
+    return {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+            "PYTHONPATH": "", "IMPACTNET_SCENES_DIR": "", "PATH":
+            f"{venv / 'bin'}:{os.environ['PATH']}"}
+
+
+@pytest.mark.slow
+def test_wheel_installs_everything_under_the_impactnet_namespace(wheel_dir):
+    wheel = next(wheel_dir.glob("impactnet-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")}
+    assert tops == {"impactnet"}
+    for needed in ("impactnet/training/bench/runner.py", "impactnet/scenes/quay_crane.toml",
+                   "impactnet/models/box/exact.py", "impactnet/service/api/routers/contact.py"):
+        assert needed in names, needed
+    assert any(n.startswith("impactnet/models/bundles/quay_crane/versions/") and
+               n.endswith("weights.safetensors") for n in names)
+    assert not any("/.cache/" in n or "/rejected/" in n for n in names)
+
+
+@pytest.mark.slow
+def test_runtime_install_serves_without_torch_beside_foreign_models_and_service(tmp_path,
+                                                                                 wheel_dir):
     venv = tmp_path / "venv"
-    _run(sys.executable, "-m", "venv", str(venv))
-    python = str(venv / "bin" / "python")
-    _run(python, "-m", "pip", "install", "--quiet", "--no-index", "--find-links",
-         str(tmp_path / "wheels"), "impactnet")
+    python, site = _fresh_venv(venv, wheel_dir)
     _run(python, "-c", "import importlib.util, sys; "
          "sys.exit(importlib.util.find_spec('torch') is not None)")
     installed = _run(python, "-m", "pip", "list", "--format=json")
     names = {p["name"].lower() for p in json.loads(installed)}
     assert "torch" not in names and {"fastapi", "uvicorn", "numpy", "orjson"} <= names
-
-    # CMD impactnet serve (python -m service until the CLI wires `serve`), outside the repo.
-    workdir = tmp_path / "app"
+    workdir = tmp_path / "app"  # outside the source tree
     workdir.mkdir()
-    env = {"IMPACTNET_SCENES_DIR": str(tmp_path / "scenes"), "OMP_NUM_THREADS": "1",
-           "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-           "PYTHONPATH": "", "PATH": f"{venv / 'bin'}:{os.environ['PATH']}"}
+    env = _env(venv)
+    # The foreign packages are still theirs, and impactnet's are its own.
+    _run(python, "-c", "import models, service, impactnet.models.box.exact as e, sys; "
+         "sys.exit(models.FOREIGN != 'models' or service.FOREIGN != 'service' or "
+         f"not e.__file__.startswith({site!r}))", cwd=workdir, env=env)
+    # impactnet contact, from the installed console script.
+    answer = json.loads(_run(str(venv / "bin" / "impactnet"), "contact", cwd=workdir,
+                             env={**os.environ, **env}))
+    assert answer["colliding"] is True and abs(answer["normal"][2] - 1) < 0.01
+
+    # CMD impactnet serve: the scene and the bundle come from the wheel.
     shipped = (REPO / "models" / "bundles" / "quay_crane").is_dir()
-    proc = ServerProcess(python=python, env=env, cwd=workdir, bundle_default=True)
+    proc = ServerProcess(env=env, cwd=workdir, bundle_default=True,
+                         command=[str(venv / "bin" / "impactnet"), "serve"])
     try:
         proc.wait_ready(timeout=120)
 
@@ -97,9 +153,30 @@ def test_runtime_install_serves_without_torch(tmp_path):
         if shipped:  # the wheel carries the bundle and serves it without torch
             assert models["modes"]["default"] == "auto"
             assert contact("auto")["predictor"] in ("committee", "exact")
-        _run(python, "-c", "import service.app, sys; "
-             "sys.exit('torch' in sys.modules or not service.app.__file__.startswith("
-             f"{str(venv)!r}))", cwd=workdir)
+        _run(python, "-c", "import impactnet.service.app, sys; "
+             "sys.exit('torch' in sys.modules or not impactnet.service.app.__file__.startswith("
+             f"{str(venv)!r}))", cwd=workdir, env=env)
         assert proc.stop() == 0, proc.output()[-3000:]
     finally:
         proc.cleanup()
+
+
+@pytest.mark.slow
+def test_installed_wheel_runs_the_quick_benchmark_outside_the_tree(tmp_path, wheel_dir):
+    """``training/bench`` ships in the wheel. The training stack (torch, SciPy, python-fcl,
+    matplotlib, MuJoCo) is taken from this test run's environment through a ``.pth`` line
+    after the fresh site-packages, so impactnet itself still comes from the wheel; resolving
+    the train extra from the index is what ``make test``'s own install checks."""
+    venv = tmp_path / "venv"
+    python, site = _fresh_venv(venv, wheel_dir)
+    with open(os.path.join(site, "zz_training_stack.pth"), "w", encoding="utf-8") as f:
+        f.write(sysconfig.get_paths()["purelib"] + "\n")
+    workdir = tmp_path / "run"
+    workdir.mkdir()
+    env = {**os.environ, **_env(venv)}
+    _run(python, "-c", "import impactnet.training.bench.runner as r, sys; "
+         f"sys.exit(not r.__file__.startswith({site!r}))", cwd=workdir, env=env)
+    out = _run(str(venv / "bin" / "impactnet"), "bench", "--quick", "--out",
+               str(workdir / "bench"), cwd=workdir, env=env)
+    assert "exact" in out
+    assert (workdir / "bench" / "results.json").is_file()

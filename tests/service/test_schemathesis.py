@@ -26,7 +26,7 @@ from schemathesis.specs.openapi.checks import (
     status_code_conformance,
 )
 
-from service.app import create_app
+from impactnet.service.app import create_app
 from tests.service.conftest import test_settings
 from tests.service.learned import write_bundle, write_scene
 

@@ -5,8 +5,8 @@ import argparse
 
 import pytest
 
-from service import cli
-from service.settings import Settings
+from impactnet.service import cli
+from impactnet.service.settings import Settings
 
 
 def _args(*argv: str) -> argparse.Namespace:

@@ -18,5 +18,6 @@ report      Markdown tables and JSON
 plots       the Pareto plot, the polygon sweep against n, Figure 2 errors against the tilt
 http        the same through the HTTP service (``--http``), on loopback
 
-Nothing here is imported by the package itself, so importing ``training.bench`` stays cheap.
+Nothing here is imported by the package itself, so importing ``impactnet.training.bench`` stays
+cheap.
 """

@@ -9,8 +9,10 @@ on the same poses written once to a temporary ``.npz``; each child reports the m
 single-pair calls and the figure quoted is the median over the rounds. Alternating spreads a
 change of machine load over both sides instead of charging it to one.
 
-The child imports ``models.exact.box_box`` from the checkout it is given (``PYTHONPATH`` set to
-it, working directory inside it) and nothing else from impactnet, so any commit with that
+The child imports ``box_box`` from the checkout it is given, whatever its layout: under the
+``impactnet`` namespace (``impactnet.models.box.exact``, the package's path pointed at the
+checkout rather than at what is installed) or from the flat layout before it
+(``models.exact``, with ``PYTHONPATH`` set to the checkout), so that any commit with that
 function can serve as the baseline.
 """
 from __future__ import annotations
@@ -33,9 +35,16 @@ WARMUP_CALLS = 200
 CHILD_TIMEOUT_S = 300.0
 
 _CHILD = r"""
-import gc, json, statistics, sys, time
+import gc, json, os, statistics, sys, time, types
 import numpy as np
-from models.exact import box_box
+root = os.getcwd()
+if os.path.isdir(os.path.join(root, "models", "box")):  # namespace layout (impactnet.models)
+    package = types.ModuleType("impactnet")
+    package.__path__ = [os.path.join(root, "impactnet"), root]  # the checkout, not the install
+    sys.modules["impactnet"] = package
+    from impactnet.models.box.exact import box_box
+else:  # the flat layout before the namespace
+    from models.exact import box_box
 data = np.load(sys.argv[1])
 keys = ("size_a", "position_a", "quaternion_a", "size_b", "position_b", "quaternion_b")
 pairs = list(zip(*(data[k] for k in keys)))
@@ -76,7 +85,7 @@ def compare_single_pair(poses: dict, calls: int, baseline: Path, current: Path,
     calls : int
         Single-pair calls per child, warm-up included.
     baseline, current : Path
-        Repository roots (each with ``models/exact.py``).
+        Repository roots (each with ``models/box/exact.py``).
 
     Returns
     -------

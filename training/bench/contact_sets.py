@@ -12,7 +12,8 @@
   down by ``push`` and the whole pair is given a uniform random world rotation. With the edges
   horizontal, their common normal is vertical: the contact normal is A's edge x B's edge.
 
-Both return the dict layout of :func:`training.poses.first_contact_poses` (six pose arrays,
+Both return the dict layout of :func:`impactnet.models.geometry.poses.first_contact_poses` (six pose
+arrays,
 quaternions (w, x, y, z) with w >= 0, and ``push_depth``), plus their own parameters.
 """
 from __future__ import annotations
@@ -20,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from training.poses import SIZE_FAMILIES
+from impactnet.models.geometry.poses import SIZE_FAMILIES
 
 #: Stacking tilts of the issue: 0 and 10^k rad for k = -12..-2.
 STACKING_TILTS = (0.0,) + tuple(10.0 ** k for k in range(-12, -1))

@@ -1,6 +1,7 @@
 """Geometry of the centre-of-pressure reference: which face, and where to integrate.
 
-Part of :mod:`training.bench.cop_reference` (see its docstring): the choice of the reference
+Part of :mod:`impactnet.training.bench.cop_reference` (see its docstring): the choice of the
+reference
 face (:func:`reference_faces`), the pair seen from the reference box (:func:`reference_frame`),
 the grid's rectangle (:func:`support_points`, :func:`grid_frame`) and the slabs that bound the
 integrand (:func:`constraints`). Plain NumPy and SciPy; nothing from ``models``.

@@ -4,18 +4,19 @@ DESIGN.md defines ``point`` as the centre of pressure of the contact region unde
 proportional to the local penetration depth. This module computes it by brute force, without
 the solver's manifold or clipping code (it imports nothing from ``models``):
 
-1. Reference face (:func:`training.bench.cop_frame.reference_faces`): of A's six faces and
+1. Reference face (:func:`impactnet.training.bench.cop_frame.reference_faces`): of A's six faces and
    B's six faces, the one whose outward normal is best aligned with a given contact normal
    ``n`` (A's face with ``+n``, B's with ``-n``; A wins exact ties). Its box is the reference
    box, the other the incident box.
-2. Grid rectangle (:func:`training.bench.cop_frame.grid_frame`): the incident box's vertices
+2. Grid rectangle (:func:`impactnet.training.bench.cop_frame.grid_frame`): the incident box's
+vertices
    beyond the reference plane and its edges' crossings with the plane span the footprint (the
    projection of its part beyond the plane); the grid takes the axes of their minimum-area
    bounding rectangle and the extents of the footprint clipped to the reference face
-   (:func:`training.bench.cop_frame.clipped_points`). A footprint of a square
+   (:func:`impactnet.training.bench.cop_frame.clipped_points`). A footprint of a square
    millimetre is resolved as finely as one of square metres, a thin diagonal sliver as finely
    as a square.
-3. Depth per grid point (:func:`training.bench.cop_frame.depth_at`): the line through the
+3. Depth per grid point (:func:`impactnet.training.bench.cop_frame.depth_at`): the line through the
    cell centre ``y`` (on the reference plane) along the face's outward normal meets the
    incident box in ``[s_in, s_out]`` (slab method); ``d(y) = -s_in``, how far the incident
    box's surface that faces the reference face lies beyond the plane (into the reference box);
@@ -32,7 +33,7 @@ grid (stacks whose edges line up), where a square sub-grid would locate it only 
 spacing. So the cells on the edge (:func:`_boundary_cells`) are resampled with a Fibonacci
 lattice (:func:`fibonacci_lattice`), whose points are distinct along both axes. Measured against
 a G = 384 / 89-point grid on ~740 face contacts of 2 m cubes (uniform, near-parallel faces and
-near-parallel edges; ``tests/models/test_centre_of_pressure_reference.py`` re-measures it):
+near-parallel edges; ``tests/training/bench/test_centre_of_pressure_reference.py`` re-measures it):
 
 =========  ===================================  ==================================
 grid       worst error / footprint's long side  worst error, % of the 2 m edge
@@ -52,7 +53,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from training.bench.cop_frame import (
+from impactnet.training.bench.cop_frame import (
     clipped_points,
     constraints,
     depth_at,
@@ -73,7 +74,7 @@ BLOCK_POINTS = 1 << 19
 #: points of a Fibonacci lattice (:func:`fibonacci_lattice`), so a Fibonacci number.
 DEFAULT_REFINE = 21
 #: The reference face's corners as signs along u and w, in the order of
-#: :func:`training.bench.cop_frame.clipped_points`.
+#: :func:`impactnet.training.bench.cop_frame.clipped_points`.
 _CORNER_U, _CORNER_W = np.array([1.0, -1.0, -1.0, 1.0]), np.array([1.0, 1.0, -1.0, -1.0])
 
 
@@ -202,7 +203,8 @@ def _local_point(sums, e1, e2, k, sign, half_ref):
 
 def _grid_rectangle(t, rot, half_i, half_r, axis, sign):
     """The grid's axes ``e1``, ``e2`` (m, 2) and extents ``low``, ``high`` (m, 2) of m pairs
-    in their reference frames (:func:`training.bench.cop_frame.grid_frame`); the face's corners
+    in their reference frames (:func:`impactnet.training.bench.cop_frame.grid_frame`); the face's
+    corners
     inside the footprint are found with the depth itself."""
     rows = np.arange(len(t))
     points, valid = support_points(t, rot, half_i, half_r, axis, sign)

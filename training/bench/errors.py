@@ -3,8 +3,7 @@
 * A pose counts when the exact solver says that the boxes touch (``colliding``).
 * Missed: the method says "no contact" there. Misses enter the miss rate and the contact-type
   accuracy (as wrong) but not the angle and point statistics, which need an answer.
-* Normal error: the angle between the two unit normals, ``atan2(|a x b|, a . b)`` in degrees
-  (accurate down to round-off, unlike ``arccos``).
+* Normal error: the angle between the two unit normals, :func:`impactnet.models.metrics.angle_deg`.
 * Point error: the distance between the two impact points as a percentage of the smaller
   body's shortest edge.
 * Contact-type accuracy: the share of counted poses whose type equals the exact one; None for
@@ -19,8 +18,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-#: Percentiles reported besides the median.
-TAIL_PERCENTILE = 99.0
+from impactnet.models.metrics import angle_deg, summarise
 
 
 @dataclass
@@ -55,18 +53,12 @@ class ErrorSummary:
         return asdict(self)
 
 
-def angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Angles between rows of a and b (n, 3), degrees, accurate for tiny angles."""
-    cross = np.linalg.norm(np.cross(a, b), axis=1)
-    return np.degrees(np.arctan2(cross, np.einsum("ij,ij->i", a, b)))
-
-
 def row_errors(answer, reference, scale: np.ndarray) -> RowErrors:
     """Per-pose errors of ``answer`` against ``reference`` (both :class:`methods.Answer`).
 
     Parameters
     ----------
-    answer, reference : training.bench.methods.Answer
+    answer, reference : impactnet.training.bench.methods.Answer
         The method's and the exact solver's answers for the same n poses.
     scale : ndarray, shape (n,)
         The smaller body's shortest edge per pose, metres.
@@ -87,14 +79,11 @@ def row_errors(answer, reference, scale: np.ndarray) -> RowErrors:
 
 
 def _stats(values: np.ndarray) -> tuple[float | None, float | None, float | None]:
-    values = values[np.isfinite(values)]
-    if values.size == 0:
-        return None, None, None
-    return (float(np.median(values)), float(np.percentile(values, TAIL_PERCENTILE)),
-            float(values.max()))
+    stats = summarise(values)
+    return stats["median"], stats["p99"], stats["max"]
 
 
-def summarise(errors: RowErrors, rows=None, tolerance=None) -> ErrorSummary:
+def method_summary(errors: RowErrors, rows=None, tolerance=None) -> ErrorSummary:
     """Summary statistics over all poses (or over ``rows``, an index or boolean mask).
 
     ``tolerance``: (normal degrees, point per cent) for ``within_tolerance``; None: not computed.
@@ -126,7 +115,7 @@ def by_group(errors: RowErrors, groups: np.ndarray) -> dict:
             "miss_rate")
     out = {"group": [], **{key: [] for key in keys}}
     for value in np.unique(groups):
-        summary = summarise(errors, groups == value)
+        summary = method_summary(errors, groups == value)
         out["group"].append(float(value))
         for key in keys:
             out[key].append(getattr(summary, key))

@@ -1,9 +1,10 @@
 """`impactnet bench --http`: the same predictors through the HTTP service, on loopback.
 
-A server (``python -m service``, the command behind ``impactnet serve``) is started here on
+A server (``python -m impactnet.service``, the command behind ``impactnet serve``) is started here
+on
 127.0.0.1 at a free port, with the benchmark's scene (and ``--bundle`` when one is given), its
 access log off; the benchmark waits (bounded) for ``/readyz``, reads the modes it serves from
-``/v1/models``, and per mode measures with :class:`service.client.ImpactClient` (one
+``/v1/models``, and per mode measures with :class:`impactnet.service.client.ImpactClient` (one
 keep-alive connection, the simulator's client):
 
 * ``POST /v1/contact``: one pair per request (bodies named by the scene's objects), warm-up
@@ -27,8 +28,8 @@ import time
 
 import numpy as np
 
-from training.bench import errors as er
-from training.bench.methods import Answer
+from impactnet.training.bench import errors as er
+from impactnet.training.bench.methods import Answer
 
 #: Seconds to wait for the server's /readyz, and for its exit after SIGTERM.
 START_TIMEOUT_S = 60.0
@@ -48,11 +49,12 @@ def free_port() -> int:
 
 @contextlib.contextmanager
 def running_server(scene: str, bundle: str | None, log):
-    """Start ``python -m service`` on a free loopback port; yields (client, info)."""
-    from service.client import ImpactClient
+    """Start ``python -m impactnet.service`` on a free loopback port; yields (client, info)."""
+    from impactnet.service.client import ImpactClient
 
     port = free_port()
-    command = [sys.executable, "-m", "service", "--host", "127.0.0.1", "--port", str(port),
+    command = [sys.executable, "-m", "impactnet.service", "--host", "127.0.0.1",
+               "--port", str(port),
                "--scene", scene, "--no-access-log", "--log-level", "warning"]
     if bundle:
         command += ["--bundle", bundle]
@@ -126,7 +128,7 @@ def _contact(client, poses, reference, mode: str, count: int) -> dict:
         point.append(answer["point"])
         normal.append(answer["normal"])
     scored = Answer(np.array(colliding), np.array(point, float), np.array(normal, float))
-    summary = er.summarise(er.row_errors(scored, reference.take(rows), poses.scale[rows]))
+    summary = er.method_summary(er.row_errors(scored, reference.take(rows), poses.scale[rows]))
     return {"requests": len(times), "us_median": 1e6 * statistics.median(times),
             "us_p99": 1e6 * float(np.percentile(times, 99)), "errors": summary.to_dict()}
 
@@ -147,7 +149,7 @@ def _batch(client, poses, reference, mode: str, limit: int, repeats: int) -> dic
     seconds = statistics.median(times)
     scored = Answer(np.asarray(out["colliding"], bool), np.asarray(out["point"], float),
                     np.asarray(out["normal"], float))
-    summary = er.summarise(er.row_errors(scored, reference.take(rows), poses.scale[rows]))
+    summary = er.method_summary(er.row_errors(scored, reference.take(rows), poses.scale[rows]))
     return {"n": len(rows), "repeats": repeats, "seconds_median": seconds,
             "pairs_per_s": len(rows) / seconds, "us_per_pair": 1e6 * seconds / len(rows),
             "errors": summary.to_dict()}
@@ -155,7 +157,7 @@ def _batch(client, poses, reference, mode: str, limit: int, repeats: int) -> dic
 
 def measure_http(config, poses, scene, log) -> dict:
     """Every mode (exact and the learned ones) through the service; see the module docstring."""
-    from models.exact import box_box
+    from impactnet.models.box.exact import box_box
 
     reference = Answer.from_contacts(box_box(*poses.args()))
     modes = ("exact", *config.learned)

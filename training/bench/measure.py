@@ -8,9 +8,10 @@ Per method and pose set (:func:`measure_method`):
   the median of ``repeats`` timed calls. Vectorised methods take the whole set (N = 1e5 in the
   full plan); python-fcl loops take an evenly spread subsample whose size is reported as the
   N measured. Nothing is extrapolated.
-* Errors against the exact solver's answers for the same poses (:mod:`training.bench.errors`).
+* Errors against the exact solver's answers for the same poses
+(:mod:`impactnet.training.bench.errors`).
 * Errors against independent references, MuJoCo's box-box and the grid centre of pressure
-  (:mod:`training.bench.vs_mujoco`), on at most ``mujoco_poses`` of the scored poses.
+  (:mod:`impactnet.training.bench.vs_mujoco`), on at most ``mujoco_poses`` of the scored poses.
 
 Ratios to the exact solver use the exact solver's figures from the same run and pose set:
 ``time / exact time`` at N = 1, and per pair at the throughput N (exact at its own N).
@@ -22,10 +23,10 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from training.bench import errors as er
-from training.bench import polygon as pg
-from training.bench.methods import LEARNED, Answer, Method
-from training.bench.timing import median_per_call, median_repeated
+from impactnet.training.bench import errors as er
+from impactnet.training.bench import polygon as pg
+from impactnet.training.bench.methods import LEARNED, Answer, Method
+from impactnet.training.bench.timing import median_per_call, median_repeated
 
 
 @dataclass(frozen=True)
@@ -81,7 +82,8 @@ class Row:
     n1_vs_exact: float | None = None  # us_n1 / exact's us_n1
     per_pair_vs_exact: float | None = None  # us_per_pair / exact's us_per_pair
     info: dict = field(default_factory=dict)  # method info and diagnostics
-    vs_mujoco: dict | None = None  # training.bench.vs_mujoco.summarise(); None: not measured
+    # impactnet.training.bench.vs_mujoco.column_summary(); None: not measured
+    vs_mujoco: dict | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -96,7 +98,7 @@ def _loop_size(method: Method, poses, config: BenchConfig) -> int:
 
 
 def _variant_errors(answer: Answer, reference: Answer, scale) -> dict:
-    """Error summaries of each polygon reduction (training.bench.polygon.VARIANTS)."""
+    """Error summaries of each polygon reduction (impactnet.training.bench.polygon.VARIANTS)."""
     out = {}
     for name in pg.VARIANTS:
         point, normal = answer.point.copy(), answer.normal.copy()
@@ -104,7 +106,7 @@ def _variant_errors(answer: Answer, reference: Answer, scale) -> dict:
             if variant is not None:
                 point[i], normal[i] = variant[name]
         scored = Answer(answer.colliding, point, normal)
-        out[name] = er.summarise(er.row_errors(scored, reference, scale)).to_dict()
+        out[name] = er.method_summary(er.row_errors(scored, reference, scale)).to_dict()
     return out
 
 
@@ -123,7 +125,7 @@ def measure_method(method: Method, poses, reference: Answer, config: BenchConfig
 
     ``tolerance``: the scene's accuracy as (normal degrees, point per cent of the shortest
     edge), for the "within tolerance" share; None leaves it out. ``mujoco``: the pose set's
-    :class:`training.bench.vs_mujoco.MujocoColumn`, or None for no "vs MuJoCo" column.
+    :class:`impactnet.training.bench.vs_mujoco.MujocoColumn`, or None for no "vs MuJoCo" column.
     """
     row = Row(method.name, method.family, poses.name, "ok", set_size=len(poses),
               info=dict(method.info))
@@ -149,7 +151,7 @@ def measure_method(method: Method, poses, reference: Answer, config: BenchConfig
     row.us_per_pair, row.pairs_per_s = 1e6 * seconds / len(rows), len(rows) / seconds
     scale, expected = poses.scale[rows], reference.take(rows)
     per_pose = er.row_errors(answer, expected, scale)
-    row.errors = er.summarise(per_pose, tolerance=tolerance).to_dict()
+    row.errors = er.method_summary(per_pose, tolerance=tolerance).to_dict()
     if poses.tilt is not None:
         row.info["by_tilt"] = er.by_group(per_pose, poses.tilt[rows])
     _diagnostics(row, method, answer, expected, per_pose, poses, rows)

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from training.bench import polygon as pg
+from impactnet.training.bench import polygon as pg
 
 #: The learned predictors, by their ``models.load_predictor`` names.
 LEARNED = ("single", "committee", "auto")
@@ -32,7 +32,8 @@ class Answer:
     colliding: np.ndarray  # (n,) bool
     point: np.ndarray  # (n, 3) impact point
     normal: np.ndarray  # (n, 3) unit normal (0 where the method says "no contact")
-    contact_type_code: np.ndarray | None = None  # (n,) models.contacts codes; None: no types
+    # (n,) impactnet.models.contacts codes; None: no types
+    contact_type_code: np.ndarray | None = None
     extra: dict = field(default_factory=dict)  # per-method diagnostics (counts, variants)
 
     def take(self, rows) -> Answer:
@@ -42,7 +43,7 @@ class Answer:
 
     @classmethod
     def from_contacts(cls, contacts) -> Answer:
-        """From a ``models.contacts.Contacts`` (exact and learned predictors)."""
+        """From a ``impactnet.models.contacts.Contacts`` (exact and learned predictors)."""
         extra = {}
         if getattr(contacts, "predictor", None) is not None:
             names, counts = np.unique(np.asarray(contacts.predictor, dtype=str),
@@ -71,7 +72,7 @@ class Method:
 
 
 def predictor_method(name: str, predictor: Callable, family: str = "other") -> Method:
-    """A method from any callable with ``models.exact.box_box``'s signature."""
+    """A method from any callable with ``impactnet.models.box.exact.box_box``'s signature."""
 
     def batch(args, detail=False):
         return Answer.from_contacts(predictor(*args))
@@ -81,19 +82,17 @@ def predictor_method(name: str, predictor: Callable, family: str = "other") -> M
 
 
 def exact_method() -> Method:
-    """The exact solver, ``models.exact.box_box`` (the reference of every error column)."""
-    from models.exact import box_box
+    """The exact solver, ``impactnet.models.box.exact.box_box`` (the reference of every error
+    column)."""
+    from impactnet.models.box.exact import box_box
 
     return predictor_method("exact", box_box, "exact")
 
 
 def learned_methods(names=LEARNED, bundle=None) -> list[Method]:
     """``models.load_predictor(name)`` for each name; unavailable ones carry the reason."""
-    try:
-        from models import load_predictor
-    except ImportError as exc:
-        reason = f"models.load_predictor is missing ({exc})"
-        return [Method(name, "learned", unavailable=reason) for name in names]
+    from impactnet.models import load_predictor
+
     methods = []
     for name in names:
         try:
@@ -165,7 +164,8 @@ def fcl_box_method() -> Method:
 
 
 def polygon_method(n: int) -> Method:
-    """The paper's polygon method at grid size ``n`` (see :mod:`training.bench.polygon`)."""
+    """The paper's polygon method at grid size ``n`` (see
+    :mod:`impactnet.training.bench.polygon`)."""
     try:
         method = pg.PolygonMethod(pg.PolygonConfig(n))
     except ImportError as exc:

@@ -6,7 +6,7 @@ one box geom each), sets the poses row by row through ``qpos``, runs ``mj_kinema
 imported when the first model is built, never at module import.
 
 MuJoCo 4.0 conventions, checked empirically on 4.0.0 (cubes of edge 2, A = geom 0, B = geom 1;
-the key cases are re-checked in ``tests/models/test_exact_vs_mujoco.py``). The box-box
+the key cases are re-checked in ``tests/training/bench/test_exact_vs_mujoco.py``). The box-box
 collider was rewritten after 3.9 ("SAT + polygon clipping + true edge-edge contacts"), so the
 dev extra should ask for ``mujoco>=4.0``.
 ------------------------------------------------------------------------------------------

@@ -1,6 +1,7 @@
 """The benchmark's pose sets: first contacts of a scene, and the paper's Figure 2 hard case.
 
-* :func:`scene_poses`: ``training.poses.first_contact_poses`` for every pair of the scene
+* :func:`scene_poses`: ``impactnet.models.geometry.poses.first_contact_poses`` for every pair of the
+scene
   (uniform relative orientation, the scene's ``depth_fraction``), the same count per pair,
   interleaved so that any prefix covers every pair evenly (a subsample is a prefix).
 * :func:`figure2_poses`: two cubes (the scene's ``cube`` body when it has one, else edge
@@ -73,7 +74,7 @@ class PoseSet:
 
 def scene_poses(scene, n: int, seed: int) -> PoseSet:
     """``n`` first-contact poses over every pair of ``scene`` (see the module docstring)."""
-    from training.poses import first_contact_poses
+    from impactnet.models.geometry.poses import first_contact_poses
 
     sizes = scene.pair_sizes()
     m = len(sizes)

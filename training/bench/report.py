@@ -57,7 +57,8 @@ def _mujoco_within(summary: dict | None) -> str:
 
 
 def mujoco_table(rows: list[dict], pose_set: str) -> str:
-    """Each method against MuJoCo and the grid centre of pressure (training.bench.vs_mujoco)."""
+    """Each method against MuJoCo and the grid centre of pressure
+    (impactnet.training.bench.vs_mujoco)."""
     lines = ["| method | poses compared | within 1° & 2 % | normal error ° median / p99 "
              "| point error % median / p99 | MuJoCo edge-edge | missed |",
              "|---|---:|---:|---:|---:|---:|---:|"]
@@ -179,7 +180,7 @@ def markdown(results: dict) -> str:
             "### Other reductions of the same triangle-pair contacts", "",
             variants_table(results["rows"]), ""]
     if "http" in results:
-        from training.bench.http import http_table
+        from impactnet.training.bench.http import http_table
 
         out += ["## Through the HTTP service (loopback)", "", http_table(results["http"]), ""]
     return "\n".join(out)
@@ -187,7 +188,7 @@ def markdown(results: dict) -> str:
 
 def write(results: dict, out: Path) -> list[Path]:
     """Write ``results.md``, ``results.json`` and the figures into ``out``; returns the paths."""
-    from training.bench import plots
+    from impactnet.training.bench import plots
 
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "results.md", out / "results.json"]

@@ -1,7 +1,7 @@
 """One benchmark run: pose sets, every method on each, the paper check, optional HTTP.
 
-    from training.bench.measure import QUICK
-    from training.bench.runner import run_bench
+    from impactnet.training.bench.measure import QUICK
+    from impactnet.training.bench.runner import run_bench
     results = run_bench(QUICK)          # a dict, the content of results.json
 
 ``methods`` may be given (tests add a deliberately perturbed predictor); the first method of
@@ -14,12 +14,12 @@ import sys
 import time
 from dataclasses import asdict
 
-from training.bench import paper, vs_mujoco
-from training.bench.measure import BenchConfig, add_ratios, measure_method
-from training.bench.methods import default_methods
-from training.bench.polygon import RULE, VARIANTS
-from training.bench.pose_sets import figure2_poses, scene_poses
-from training.bench.timing import machine_info
+from impactnet.training.bench import paper, vs_mujoco
+from impactnet.training.bench.measure import BenchConfig, add_ratios, measure_method
+from impactnet.training.bench.methods import default_methods
+from impactnet.training.bench.polygon import RULE, VARIANTS
+from impactnet.training.bench.pose_sets import figure2_poses, scene_poses
+from impactnet.training.bench.timing import machine_info
 
 #: Seed offset of the Figure 2 placements (independent of the scene poses).
 FIGURE2_SEED_OFFSET = 1
@@ -53,7 +53,7 @@ def mujoco_info(config: BenchConfig) -> dict:
 def run_bench(config: BenchConfig, methods=None, mode: str = "custom",
               log=stderr_log) -> dict:
     """Measure every method on every pose set; returns the results as plain JSON types."""
-    from models.scenes import load_scene
+    from impactnet.models.scenes import load_scene
 
     started = time.perf_counter()
     machine = machine_info()
@@ -92,7 +92,7 @@ def run_bench(config: BenchConfig, methods=None, mode: str = "custom",
         "mujoco": mujoco,
     }
     if config.http:
-        from training.bench.http import measure_http
+        from impactnet.training.bench.http import measure_http
 
         results["http"] = measure_http(config, sets[0], scene, log)
     results["seconds"] = round(time.perf_counter() - started, 1)

@@ -1,19 +1,23 @@
 """The stacking table: how the exact solver answers a box resting on another, per tilt.
 
-    python -m training.bench.stacking_table [--rows 2000] [--seed 0] [--family cube]
+    python -m impactnet.training.bench.stacking_table [--rows 2000] [--seed 0] [--family cube]
                                             [--method exact|single|committee|auto]
 
-For each tilt of :data:`training.bench.contact_sets.STACKING_TILTS` (0 and 1e-12 .. 1e-2 rad),
-``--rows`` poses of :func:`training.bench.contact_sets.stacking_poses` are solved by
-``models.exact.box_box`` and compared with MuJoCo's box-box and with the grid centre of pressure
-(:mod:`training.bench.vs_mujoco`); ``--method`` answers with a learned predictor of the shipped
+For each tilt of :data:`impactnet.training.bench.contact_sets.STACKING_TILTS` (0 and 1e-12 .. 1e-2
+rad),
+``--rows`` poses of :func:`impactnet.training.bench.contact_sets.stacking_poses` are solved by
+``impactnet.models.box.exact.box_box`` and compared with MuJoCo's box-box and with the grid centre
+of pressure
+(:mod:`impactnet.training.bench.vs_mujoco`); ``--method`` answers with a learned predictor of the
+shipped
 bundle instead (``models.load_predictor``), to check that ``committee`` and ``auto`` agree with
 MuJoCo on stacking as well as ``exact`` does. Columns: the share of rows answered edge-edge; the
 point error against MuJoCo's depth-weighted contact centroid and against the centre-of-pressure
 reference (median / p99, % of the pair's shortest edge); the share of rows more than 2 % off the
 centre of pressure; the share within both targets (normal within 1 deg of MuJoCo's, point within 2
 % of the centre of pressure, or of MuJoCo's crossing where MuJoCo answered an edge pair inside the
-face band: :mod:`training.bench.vs_mujoco`). Rows that MuJoCo finds separated (B's deepest corner
+face band: :mod:`impactnet.training.bench.vs_mujoco`). Rows that MuJoCo finds separated (B's deepest
+corner
 hangs over A's edge) are left out; "rows in contact" counts the others, and the shares are of them.
 "MuJoCo edge axis": MuJoCo answered with an edge pair. The table is printed as Markdown with the
 solver's point rule version (issue #11's "before" / "after").
@@ -25,8 +29,8 @@ import time
 
 import numpy as np
 
-from training.bench import contact_sets as cs
-from training.bench import vs_mujoco as vm
+from impactnet.training.bench import contact_sets as cs
+from impactnet.training.bench import vs_mujoco as vm
 
 HEADER = ("| tilt (rad) | rows in contact | ours edge-edge | MuJoCo edge axis "
           "| point vs MuJoCo centroid % median / p99 | point vs centre of pressure % median / p99 "
@@ -47,9 +51,10 @@ def _pair(values: np.ndarray) -> str:
 def tilt_row(tilt: float, rows: int, seed: int, family: str, predictor=None) -> dict:
     """Solve and compare ``rows`` stacking poses at one tilt; returns the table's figures.
 
-    ``predictor`` has ``models.exact.box_box``'s signature (default: the exact solver)."""
-    from models.contacts import EDGE_EDGE
-    from models.exact import box_box
+    ``predictor`` has ``impactnet.models.box.exact.box_box``'s signature (default: the exact
+    solver)."""
+    from impactnet.models.box.exact import box_box
+    from impactnet.models.contacts import EDGE_EDGE
 
     size_a, size_b = cs.STACKING_FAMILIES[family]
     args = vm.pose_args(cs.stacking_poses(rows, size_a, size_b, tilt, seed))
@@ -92,7 +97,7 @@ def markdown(figures: list[dict], family: str, method: str = "exact") -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m training.bench.stacking_table",
+    parser = argparse.ArgumentParser(prog="python -m impactnet.training.bench.stacking_table",
                                      description=__doc__.split("\n")[0])
     parser.add_argument("--rows", type=int, default=2000, help="poses per tilt (default 2000)")
     parser.add_argument("--seed", type=int, default=0, help="pose seed (default 0)")
@@ -105,19 +110,19 @@ def main(argv=None) -> int:
     missing = vm.mujoco_missing()
     if missing:
         parser.error(missing)
-    import models.contacts
+    import impactnet.models.contacts
 
     predictor = None
     if args.method != "exact":
-        from models import load_predictor
+        from impactnet.models import load_predictor
 
         predictor = load_predictor(args.method)
     started = time.perf_counter()
     figures = [tilt_row(tilt, args.rows, args.seed + k, args.family, predictor)
                for k, tilt in enumerate(cs.STACKING_TILTS)]
     print(markdown(figures, args.family, args.method))
-    rule = getattr(models.contacts, "POINT_RULE_VERSION", 1)
-    print(f"\n(point rule version {rule}, solver {models.contacts.__file__}; "
+    rule = getattr(impactnet.models.contacts, "POINT_RULE_VERSION", 1)
+    print(f"\n(point rule version {rule}, solver {impactnet.models.contacts.__file__}; "
           f"{time.perf_counter() - started:.0f} s)")
     return 0
 

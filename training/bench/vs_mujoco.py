@@ -1,6 +1,7 @@
 """Errors of any method against independent references: MuJoCo's box-box and a grid centre of
 pressure (issue #18 item 2). Used by ``impactnet bench`` (the "vs MuJoCo" column), by
-:mod:`training.bench.stacking_table` and by the tests that compare the exact solver with MuJoCo.
+:mod:`impactnet.training.bench.stacking_table` and by the tests that compare the exact solver with
+MuJoCo.
 
 The reference of each pose (:func:`mujoco_reference`):
 
@@ -8,7 +9,7 @@ The reference of each pose (:func:`mujoco_reference`):
 * point: where MuJoCo's normal lies within :data:`FACE_BAND_DEG` of a face normal of A or B
   (MuJoCo answered with a face axis, or with an edge axis leaning on a face: a tilted stack
   whose bottom edge crosses the lower box's top edge), the centre of pressure on the face best
-  aligned with that normal, by :func:`training.bench.cop_reference.centre_of_pressure`:
+  aligned with that normal, by :func:`impactnet.training.bench.cop_reference.centre_of_pressure`:
   DESIGN.md's definition of ``point``, whose tie rule prefers the face there; elsewhere (an
   edge-edge contact) MuJoCo's single contact point, the midpoint of the edges' closest
   points, which is DESIGN.md's edge-edge point as well;
@@ -30,8 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from training.bench import cop_reference as cop
-from training.bench import mujoco_reference as mj
+from impactnet.models.metrics import angle_deg, summarise
+from impactnet.training.bench import cop_reference as cop
+from impactnet.training.bench import mujoco_reference as mj
 
 #: Normal target (degrees): the scene's accuracy and issue #18's "within 1 deg".
 NORMAL_TOL_DEG = 1.0
@@ -118,7 +120,7 @@ def mujoco_reference(args, grid: int = COP_GRID, refine: int = COP_REFINE) -> Re
         ``size_a (n, 3), position_a (n, 3), quaternion_a (n, 4), size_b, position_b,
         quaternion_b`` (metres; quaternions (w, x, y, z)).
     grid, refine : int, optional
-        Grid of :func:`training.bench.cop_reference.centre_of_pressure`.
+        Grid of :func:`impactnet.training.bench.cop_reference.centre_of_pressure`.
 
     Returns
     -------
@@ -139,12 +141,6 @@ def mujoco_reference(args, grid: int = COP_GRID, refine: int = COP_REFINE) -> Re
     band = face & (face_angle > FACE_AXIS_RAD)  # MuJoCo's edge axis, inside the face band
     second = np.where(band[:, None], answer.point, np.nan)
     return Reference(answer, face, face_angle, point, second, scale, grid_answer)
-
-
-def angle_deg(a, b) -> np.ndarray:
-    """Angles between rows of a and b (n, 3), degrees, accurate for tiny angles."""
-    cross = np.linalg.norm(np.cross(a, b), axis=1)
-    return np.degrees(np.arctan2(cross, np.einsum("ij,ij->i", a, b)))
 
 
 def row_errors(point, normal, colliding, reference: Reference) -> dict:
@@ -174,13 +170,11 @@ def row_errors(point, normal, colliding, reference: Reference) -> dict:
 
 
 def _median_p99(values) -> tuple[float | None, float | None]:
-    values = values[np.isfinite(values)]
-    if values.size == 0:
-        return None, None
-    return float(np.median(values)), float(np.percentile(values, 99.0))
+    stats = summarise(values)
+    return stats["median"], stats["p99"]
 
 
-def summarise(errors: dict, reference: Reference) -> dict:
+def column_summary(errors: dict, reference: Reference) -> dict:
     """Share within the targets, median / p99 errors, and the counts behind them."""
     counted = int(errors["counted"].sum())
     normal = _median_p99(errors["normal_deg"])
@@ -207,7 +201,7 @@ class MujocoColumn:
         self._cache: dict[bytes, Reference] = {}
 
     def score(self, answer, rows) -> dict:
-        """Summary (:func:`summarise`) of ``answer`` (a ``methods.Answer`` over ``rows``)."""
+        """Summary (:func:`column_summary`) of ``answer`` (a ``methods.Answer`` over ``rows``)."""
         rows = np.asarray(rows)
         take = np.unique(np.linspace(0, len(rows) - 1, min(self.max_rows, len(rows)))
                          .round().astype(np.int64))
@@ -218,9 +212,9 @@ class MujocoColumn:
         reference = self._cache[key]
         errors = row_errors(answer.point[take], answer.normal[take], answer.colliding[take],
                             reference)
-        return summarise(errors, reference)
+        return column_summary(errors, reference)
 
 
 def pose_args(poses: dict) -> tuple[np.ndarray, ...]:
-    """The six solver arguments of a pose dict (``training.poses`` layout)."""
+    """The six solver arguments of a pose dict (``impactnet.models.geometry.poses`` layout)."""
     return tuple(np.ascontiguousarray(poses[k], dtype=np.float64) for k in _POSE_KEYS)

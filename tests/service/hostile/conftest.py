@@ -25,7 +25,7 @@ PROBE_INTERVAL_S = 0.02
 
 
 def start_server(*args: str, env: dict | None = None) -> ServerProcess:
-    """A ready server (``python -m service``) on a free loopback port, mode exact."""
+    """A ready server (``python -m impactnet.service``) on a free loopback port, mode exact."""
     proc = ServerProcess(args=["--no-access-log", *args], env=env)
     try:
         proc.wait_ready()

@@ -1,7 +1,7 @@
 """Issue 23, item 4: a column of zero rows is the documented 422 ``empty batch``, never a 500.
 
 Reproducer: an npz whose ``b_position`` has shape (0, 3) raised ``ValueError: cannot reshape
-array of size 0`` in service/columns.py (``reshape(len(rows), -1)`` is ambiguous for zero
+array of size 0`` in service/codecs/columns.py (``reshape(len(rows), -1)`` is ambiguous for zero
 rows). Every column kind and both encodings are covered: each shape that can reach a reshape.
 """
 from __future__ import annotations

@@ -11,7 +11,8 @@ import io
 
 import numpy as np
 
-from service.predictors import ExactPredictor
+from impactnet.models import load_predictor
+from impactnet.service.predictors import ServedMode
 from tests.service.conftest import PAIR
 from tests.service.test_batch import as_json, poses
 
@@ -24,7 +25,7 @@ class _NegativeDepths:
     name = "exact"
 
     def predict(self, pairs):
-        contacts = ExactPredictor().predict(pairs)
+        contacts = ServedMode("exact", load_predictor("exact")).predict(pairs)
         depths = np.where(np.arange(8) < contacts.manifold_count[:, None], ROUND_OFF_DEPTH, 0.0)
         return dataclasses.replace(contacts, manifold_depths=depths)
 

@@ -16,9 +16,9 @@ import time
 import pytest
 from fastapi.testclient import TestClient
 
-from service.app import create_app
-from service.bundle_guard import WEIGHTS_HEADER_MAX_BYTES
-from service.state import state_for
+from impactnet.service.app import create_app
+from impactnet.service.limits.bundle_guard import WEIGHTS_HEADER_MAX_BYTES
+from impactnet.service.state import state_for
 from tests.service.conftest import assert_error, test_settings
 from tests.service.learned import write_bundle, write_scene
 
@@ -111,15 +111,15 @@ def test_a_file_that_could_block_is_refused_at_once(admin, files, tmp_path, case
 def test_a_reload_past_its_deadline_answers_and_never_installs(files, monkeypatch):
     release = threading.Event()
 
-    def slow(scene, path, settings, note, on_step):
+    def slow(scene, path, settings, on_step):
         on_step("smoke")
         release.wait(CALL_BOUND_S)
-        return state_for(scene, path, settings, note)
+        return state_for(scene, path, settings)
 
     settings = test_settings(scene=str(files["scene"]), bundle=str(files["v1"]),
                              admin_token=TOKEN, reload_timeout_s=0.5, smoke_poses=SMOKE_POSES)
     with TestClient(create_app(settings), raise_server_exceptions=False) as admin:
-        monkeypatch.setattr("service.reload.state_for", slow)
+        monkeypatch.setattr("impactnet.service.reload.state_for", slow)
         body = assert_error(_reload(admin, files["v2"]), 422, "bundle", "reload_failed")
         assert body["step"] == "smoke" and "did not finish within 0.5 s" in body["message"]
         waiting = assert_error(_reload(admin, files["v2"]), 409, "bundle", "reload_failed")

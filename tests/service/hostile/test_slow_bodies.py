@@ -15,8 +15,8 @@ import httpx
 import orjson
 import pytest
 
-from service.app import create_app
-from service.saturation import GAP_S
+from impactnet.service.app import create_app
+from impactnet.service.limits.saturation import GAP_S
 from tests.service.conftest import PAIR, get, test_settings
 from tests.service.hostile.conftest import post, read_reply, stalled_sockets
 from tests.service.test_limits import SMALL_BATCH, hold_a_slot

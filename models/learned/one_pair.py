@@ -1,0 +1,222 @@
+"""The learned predictors for one pair, in plain Python floats (the N = 1 fast path).
+
+NumPy costs about a microsecond per call whatever the array size, and the batch path
+(:mod:`impactnet.models.learned.batch`) makes a few hundred calls, so one pair takes this path: the
+same
+stages (validation, dispatch, canonical frame, networks, mapping back, ``auto``'s fallback)
+with the geometry in Python floats and only the vector-matrix products in NumPy
+(:meth:`impactnet.models.learned.mlp.MLP.forward_one`). The canonical frame follows
+:mod:`impactnet.models.learned.canonical`
+(``R = R_A^T R_B`` from the two matrices, signs with ties +1), so the answer equals the batch
+path's row up to float32 rounding (tested).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from impactnet.models import contacts as ct
+from impactnet.models.box.exact_one import box_box_one, single_pair
+from impactnet.models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
+from impactnet.models.geometry.rotations import QUATERNION_MIN_NORM
+from impactnet.models.learned.canonical import FALLBACK_NORMAL, FLIP_FEATURES, NORMAL_NORM_MIN
+from impactnet.models.learned.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UnsupportedPairError
+from impactnet.models.learned.pair_runtime import AUTO_EXACT_TYPES
+from impactnet.models.learned.pose_columns import WIDTHS
+from impactnet.models.learned.region_label import label_one
+
+_PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
+_DEG = 180.0 / math.pi
+_FLIP = FLIP_FEATURES.tolist()  # _FLIP[flip][feature], feature -1 -> last entry (-1)
+_MIRROR_TYPE, _MIRROR_AXIS = MIRROR_TYPE.tolist(), MIRROR_AXIS.tolist()
+_FALLBACK = FALLBACK_NORMAL.tolist()
+
+
+class Prediction(NamedTuple):
+    """A predictor's answer and the committee's spread (0 where no committee answered)."""
+
+    contacts: ct.Contacts
+    normal_spread: np.ndarray  # (n,) degrees, largest angle between member normals
+    point_spread: np.ndarray  # (n,) metres, largest distance between member points
+
+
+def one_pair(values):
+    """The six inputs as validated float lists (quaternions normalised) if they are one
+    valid pair, else None (then the batch path takes them, and raises on invalid input).
+
+    Gives the answer of :func:`impactnet.models.box.exact_one.single_pair`, which it calls for
+    anything
+    but float64 vectors and float lists; a batch is recognised by its size first, before
+    anything is converted.
+    """
+    rows = []
+    for value, width in zip(values, WIDTHS):
+        if type(value) is np.ndarray:
+            if value.size != width:
+                return None
+            if value.dtype != np.float64 or value.ndim != 1:
+                return single_pair(*values)
+            rows.append(value.tolist())
+        elif type(value) is list and len(value) == width:
+            rows.append(value)
+        elif isinstance(value, list | tuple) and len(value) not in (1, width):
+            return None
+        else:
+            return single_pair(*values)
+    size_a, pa, qa, size_b, pb, qb = rows
+    if not all(type(v) is float for row in rows for v in row):
+        return single_pair(*values)
+    if not math.isfinite(sum(size_a) + sum(pa) + sum(qa) + sum(size_b) + sum(pb) + sum(qb)):
+        return single_pair(*values)  # a non-finite value, or a sum that overflows
+    for size in (size_a, size_b):
+        if not (min(size) >= SIZE_MIN_M and max(size) <= SIZE_MAX_M):
+            return None
+    for p in (pa, pb):
+        if not (abs(p[0]) <= POSITION_MAX_M and abs(p[1]) <= POSITION_MAX_M
+                and abs(p[2]) <= POSITION_MAX_M):
+            return None
+    units = []
+    for w, x, y, z in (qa, qb):
+        norm = math.sqrt(w * w + x * x + y * y + z * z)  # summed as single_pair sums
+        if not norm >= QUATERNION_MIN_NORM:
+            return None
+        units.append([w / norm, x / norm, y / norm, z / norm])
+    return [size_a, pa, units[0], size_b, pb, units[1]]
+
+
+def _canonical(values, inv_scale):
+    """Features (12,) float32, R_A S (9 floats, row-major) and the flip indices of S, T."""
+    _, pa, (aw, ax, ay, az), _, pb, (bw, bx, by, bz) = values
+    a = (1 - 2 * (ay * ay + az * az), 2 * (ax * ay - aw * az), 2 * (ax * az + aw * ay),
+         2 * (ax * ay + aw * az), 1 - 2 * (ax * ax + az * az), 2 * (ay * az - aw * ax),
+         2 * (ax * az - aw * ay), 2 * (ay * az + aw * ax), 1 - 2 * (ax * ax + ay * ay))
+    b = (1 - 2 * (by * by + bz * bz), 2 * (bx * by - bw * bz), 2 * (bx * bz + bw * by),
+         2 * (bx * by + bw * bz), 1 - 2 * (bx * bx + bz * bz), 2 * (by * bz - bw * bx),
+         2 * (bx * bz - bw * by), 2 * (by * bz + bw * bx), 1 - 2 * (bx * bx + by * by))
+    d0, d1, d2 = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
+    t = (a[0] * d0 + a[3] * d1 + a[6] * d2, a[1] * d0 + a[4] * d1 + a[7] * d2,
+         a[2] * d0 + a[5] * d1 + a[8] * d2)
+    rot = [a[i] * b[j] + a[3 + i] * b[3 + j] + a[6 + i] * b[6 + j]
+           for i in (0, 1, 2) for j in (0, 1, 2)]
+    s = [-1.0 if v < 0.0 else 1.0 for v in t]
+    sign_b = [-1.0 if rot[j] * t[0] + rot[3 + j] * t[1] + rot[6 + j] * t[2] > 0.0 else 1.0
+              for j in (0, 1, 2)]  # sign of u = -R^T t, ties +1
+    features = [abs(t[0]) * inv_scale, abs(t[1]) * inv_scale, abs(t[2]) * inv_scale]
+    features += [rot[3 * i + j] * s[i] * sign_b[j] for i in (0, 1, 2) for j in (0, 1, 2)]
+    to_world = [a[3 * i + j] * s[j] for i in (0, 1, 2) for j in (0, 1, 2)]
+    flip_a = 4 * (s[0] < 0) + 2 * (s[1] < 0) + (s[2] < 0)
+    flip_b = 4 * (sign_b[0] < 0) + 2 * (sign_b[1] < 0) + (sign_b[2] < 0)
+    return np.array(features, np.float32), to_world, flip_a, flip_b
+
+
+def _to_world(pair, y, m, pa):
+    """World point, unit normal and depth (clipped at 0) of one contact-v1 output ``y``
+    (7 floats); ``m`` = R_A S (9 floats), ``pa`` = A's position."""
+    n0, n1, n2 = y[3], y[4], y[5]
+    norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    n0, n1, n2 = _FALLBACK if norm < NORMAL_NORM_MIN else (n0 / norm, n1 / norm, n2 / norm)
+    normal = [m[0] * n0 + m[1] * n1 + m[2] * n2, m[3] * n0 + m[4] * n1 + m[5] * n2,
+              m[6] * n0 + m[7] * n1 + m[8] * n2]
+    return _point_to_world(pair, y, m, pa), normal, max(y[6] * pair.edge, 0.0)
+
+
+def _point_to_world(pair, y, m, pa):
+    """World point of the canonical point / L in ``y[:3]`` relative to ``pa`` (A's position,
+    or the unclipped point for an expert's residual); ``m`` = R_A S."""
+    p0, p1, p2 = y[0] * pair.scale, y[1] * pair.scale, y[2] * pair.scale
+    return [pa[0] + m[0] * p0 + m[1] * p1 + m[2] * p2, pa[1] + m[3] * p0 + m[4] * p1
+            + m[5] * p2, pa[2] + m[6] * p0 + m[7] * p1 + m[8] * p2]
+
+
+def _spread(members, scale):
+    """Largest angle (deg) between member normals and distance (m) between member points."""
+    units = []
+    for y in members:
+        norm = max(math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5]), NORMAL_NORM_MIN)
+        units.append((y[3] / norm, y[4] / norm, y[5] / norm))
+    chord = dist = 0.0
+    for i in range(len(members)):
+        for j in range(i + 1, len(members)):
+            chord = max(chord, math.dist(units[i], units[j]))
+            dist = max(dist, math.dist(members[i][:3], members[j][:3]))
+    return 2.0 * math.asin(min(chord * 0.5, 1.0)) * _DEG, dist * scale
+
+
+def predict_one(predictor, values, spread: bool = True):
+    """The answer of ``predictor`` (a LearnedPredictor) for one validated pair (the lists
+    of :func:`one_pair`): a one-row `Contacts`, the normal spread (deg) and the point spread
+    (m) of the committee (0 where none answered, or when not ``spread`` and not auto)."""
+    code = predictor.table.match_one(values[0], values[3])
+    pair = predictor.runtime(code)
+    if pair is None:
+        if predictor.mode != "auto":
+            raise UnsupportedPairError([0], [p.key for p in predictor.pairs
+                                             if p.supports(predictor.mode)], predictor.mode)
+        return box_box_one(*values), 0.0, 0.0
+    swapped = code % 2 == 1
+    solved = values[3:] + values[:3] if swapped else values
+    if predictor.mode == "single":
+        x, to_world, _, _ = _canonical(solved, pair.inv_scale)
+        y = pair.single.forward_one(x).tolist()
+        point, normal, depth = _to_world(pair, y, to_world, solved[1])
+        inside = pair.depth_lo <= y[6] <= pair.depth_hi
+        row = [True, normal, depth, point, 0, -1, -1, -1, 1.0 if inside else 0.0, "single"]
+        spread = (0.0, 0.0)
+    else:
+        auto = predictor.mode == "auto"
+        row, spread = _committee_one(pair, solved, values, swapped, auto, spread or auto)
+        if row is None:  # no committee for the region, or auto: unsure
+            return box_box_one(*values), 0.0, 0.0
+    if swapped:
+        row[1] = [-row[1][0], -row[1][1], -row[1][2]]
+        row[4], row[5], row[6] = _MIRROR_TYPE[row[4]], row[6], row[5]
+        row[7] = _MIRROR_AXIS[row[7]]
+    return _contacts(*row), spread[0], spread[1]
+
+
+def _committee_one(pair, solved, values, swapped: bool, auto: bool, spread: bool):
+    """(row fields, spread) of the committee for one pair (``solved``: in the bundle's order);
+    row None when the exact solver is to answer (a region without a committee; in ``auto``, an
+    unsure answer); the spread only if ``spread``. The pair is labelled in the request's
+    order (``values``) and the labels mirrored into the bundle's order if ``swapped``; the
+    canonical features are formed only for a row the experts answer."""
+    colliding, axis, depth, normal, code, fa, fb, exact, unclipped = label_one(values)
+    if swapped:
+        normal, fa, fb = [-normal[0], -normal[1], -normal[2]], fb, fa
+        code, axis = _MIRROR_TYPE[code], _MIRROR_AXIS[axis]
+    if not colliding:
+        pa, pb = values[1], values[4]
+        point = [0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])]
+        return [False, normal, 0.0, point, 0, -1, -1, axis, 1.0, "committee"], (0.0, 0.0)
+    inside = pair.depth_lo <= depth / pair.edge <= pair.depth_hi
+    if exact:  # the unclipped point is exact: no committee
+        if auto and not inside:
+            return None, None
+        return [True, normal, depth, unclipped, code, fa, fb, axis, 1.0 if inside else 0.0,
+                "committee"], (0.0, 0.0)
+    x, to_world, flip_a, flip_b = _canonical(solved, pair.inv_scale)
+    region = pair.region_dict.get((code, _FLIP[flip_a][fa], _FLIP[flip_b][fb]))
+    if region is None or (auto and code in AUTO_EXACT_TYPES):
+        return None, None
+    members = pair.experts[region].forward_one(x).tolist()
+    k = len(members)
+    y = [sum(column) / k for column in zip(*members)]
+    spread = _spread(members, pair.scale) if spread and k > 1 else (0.0, 0.0)
+    if auto and (not inside or spread[0] > pair.spread_normal_max
+                 or spread[1] > pair.spread_point_max):
+        return None, None
+    point = _point_to_world(pair, y, to_world, unclipped)  # the unclipped point + residual
+    return [True, normal, depth, point, code, fa, fb, axis, 1.0 if inside else 0.0,
+            "committee"], spread
+
+
+def _contacts(colliding, normal, depth, point, code, feature_a, feature_b, axis, confidence,
+              name) -> ct.Contacts:
+    """A one-row `Contacts` from two allocations (floats and small ints), as the exact
+    solver's scalar path builds it; the manifold is the point itself (count 1) or empty."""
+    floats = normal + point + [depth] + (point if colliding else [0.0] * 3) + _PADDING[3:]
+    floats += [depth] + _PADDING[:ct.MAX_MANIFOLD_POINTS - 1] + [confidence]
+    return ct.Contacts.one_row(floats, [code, feature_a, feature_b, axis, 1 if colliding else 0],
+                               colliding, name)

@@ -1,0 +1,46 @@
+"""GET /v1/models: what this server serves."""
+from __future__ import annotations
+
+from fastapi import APIRouter, Response
+
+from impactnet.models.contacts import CONTACT_TYPES, POINT_RULE, POINT_RULE_VERSION
+from impactnet.models.geometry import box_features as bf
+from impactnet.service.api.deps import RuntimeDep, ServingDep
+from impactnet.service.api.routers import ERRORS
+from impactnet.service.api.schemas import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M, ModelsResponse
+
+router = APIRouter(tags=["models"])
+
+FEATURE_NAMES = {str(i): bf.feature_name(i) for i in range(-1, bf.N_FEATURES)}
+#: The conventions of every answer, so that a client can check what it gets.
+CONVENTIONS = {"point": {"rule": POINT_RULE, "version": POINT_RULE_VERSION},
+               "normal": "from A towards B", "units": "metres, radians"}
+
+
+@router.get("/v1/models", response_model=ModelsResponse, responses={503: ERRORS[503]},
+            summary="Scene, bundle, versions and modes of this server")
+async def models(runtime: RuntimeDep, state: ServingDep, response: Response) -> ModelsResponse:
+    settings = runtime.settings
+    response.headers["X-Model-Version"] = state.model_version
+    return ModelsResponse(
+        model_version=state.model_version,
+        conventions=CONVENTIONS,
+        modes={"available": state.modes, "unavailable": state.unavailable,
+               "default": state.default_mode},
+        scene=state.scene.describe() if state.scene.name else None,
+        bundle=state.bundle,
+        versions=runtime.versions,
+        limits={"max_body_bytes": settings.max_body_bytes,
+                "max_json_body_bytes": settings.max_json_body_bytes,
+                "max_pair_body_bytes": settings.max_pair_body_bytes,
+                "body_timeout_s": settings.body_timeout_s,
+                "memory_budget_bytes": settings.memory_budget_bytes,
+                "max_batch_pairs": settings.max_batch_pairs,
+                "max_concurrency": settings.max_concurrency,
+                "position_max_m": POSITION_MAX_M, "size_min_m": SIZE_MIN_M,
+                "size_max_m": SIZE_MAX_M},
+        contact_types=list(CONTACT_TYPES),
+        feature_names=FEATURE_NAMES,
+        includes=["manifold", "paper_angles"],
+        loaded_at=state.loaded_at,
+    )

@@ -1,0 +1,169 @@
+"""Request bodies, read in full before a request is computed: a deadline, a size cap, memory.
+
+:class:`BodyReader` (pure ASGI middleware) reads the body of every request that has one before
+the application sees the request, so that a request still uploading holds no compute slot
+(:class:`impactnet.service.api.middleware.ConcurrencyLimit` sits inside it) and nothing of the
+application's:
+
+* **cap**: the body may not exceed the limit of its route (:func:`body_limit`): 413 at once
+  when ``Content-Length`` says so, before anything is read, and as soon as a streamed body
+  passes it;
+* **deadline**: the whole body must have arrived within ``body_timeout_s``; otherwise 408
+  ``body_timeout``, and the connection is closed (a stalled client sent headers and a byte,
+  then nothing: it must not hold anything for longer; :mod:`impactnet.service.limits.uploads` keeps
+  the
+  deadlines). When the server shuts down, every upload still in progress ends at once with
+  503 ``not_ready``, so that a stalled client cannot delay the exit;
+* **memory**: every chunk is reserved in the request's
+:class:`impactnet.service.limits.budget.Lease` as it
+  arrives; no room: 503 ``overloaded`` with Retry-After. The lease is released when the
+  request has been answered.
+
+The application then receives the body as one message (``receive`` replays it; later calls go
+to the server, which reports a disconnect), and finds the lease at ``scope[LEASE]``.
+"""
+from __future__ import annotations
+
+import asyncio
+
+from starlette.types import Message, Receive, Scope, Send
+
+from impactnet.service.api.errors import Overloaded, PayloadTooLarge
+from impactnet.service.limits.budget import Lease
+from impactnet.service.respond import Middleware, header, send_error
+from impactnet.service.runtime import Runtime
+
+#: Key of the request's memory lease in the ASGI scope.
+LEASE = "impactnet.lease"
+NPZ = b"application/x-npz"
+BATCH_PATH = "/v1/contact/batch"
+_CLOSE = [(b"connection", b"close")]
+
+
+def body_limit(scope: Scope, runtime: Runtime) -> int:
+    """Bytes the body of this request may have: ``max_body_bytes`` for every body, and less
+    for a JSON batch (``max_json_body_bytes``) and for any other request
+    (``max_pair_body_bytes``)."""
+    settings = runtime.settings
+    if scope["path"] != BATCH_PATH:
+        return min(settings.max_body_bytes, settings.max_pair_body_bytes)
+    media = (header(scope, b"content-type") or b"").split(b";", 1)[0].strip().lower()
+    if media == NPZ:
+        return settings.max_body_bytes
+    return min(settings.max_body_bytes, settings.max_json_body_bytes)
+
+
+def _has_body(scope: Scope, length: bytes | None) -> bool:
+    """Whether to read a body: declared (``length``: the Content-Length header), or possible
+    (any method but GET and HEAD; an ASGI server other than uvicorn may stream a body
+    without either header)."""
+    if length is not None:
+        return length != b"0"
+    return (header(scope, b"transfer-encoding") is not None
+            or scope.get("method") not in ("GET", "HEAD"))
+
+
+class BodyReader(Middleware):
+    """Read the whole body first (module docstring), then call the application."""
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        lease = scope[LEASE] = Lease(self.runtime.budget)
+        try:
+            declared = header(scope, b"content-length")
+            if not _has_body(scope, declared):
+                await self.app(scope, receive, send)
+                return
+            limit = body_limit(scope, self.runtime)
+            if declared is not None and declared.isdigit() and int(declared) > limit:
+                await self._too_large(send, limit)
+                return
+            body = await self._read(receive, send, limit, lease)
+            if body is None:  # answered already (408, 413, 503) or the client left
+                return
+            replayed = False
+
+            async def replay() -> Message:
+                nonlocal replayed
+                if replayed:
+                    return await receive()
+                replayed = True
+                return {"type": "http.request", "body": body, "more_body": False}
+
+            await self.app(scope, replay, send)
+        finally:
+            lease.release()
+
+    async def _too_large(self, send: Send, limit: int) -> None:
+        self.runtime.metrics.rejected.labels("body_too_large").inc()
+        await send_error(send, 413, "body_too_large",
+                         f"request body larger than the limit of {limit} bytes", _CLOSE)
+
+    async def _read(self, receive: Receive, send: Send, limit: int, lease: Lease) -> bytes | None:
+        """The body, or None after answering the error (or when the client disconnected)."""
+        uploads = self.runtime.uploads
+        chunks: list[bytes] = []
+        total = 0
+        task = uploads.begin()
+        try:
+            more = True
+            while more:
+                message = await receive()
+                if message["type"] == "http.disconnect":
+                    return None
+                chunk = message.get("body", b"")
+                more = message.get("more_body", False)
+                if not chunk:
+                    continue
+                total += len(chunk)
+                if total > limit:
+                    await self._too_large(send, limit)
+                    return None
+                await lease.areserve(len(chunk), "the request body")
+                chunks.append(chunk)
+        except asyncio.CancelledError:
+            if not uploads.expired(task):
+                raise
+            await self._timed_out(send, uploads.shutting_down)
+            return None
+        except (Overloaded, PayloadTooLarge) as exc:
+            await self._refused(send, exc)
+            return None
+        finally:
+            uploads.end(task)
+        if len(chunks) == 1:  # a small body: one message
+            return chunks[0]
+        return await self._joined(chunks, total, lease, send)
+
+    async def _refused(self, send: Send, exc: Overloaded | PayloadTooLarge) -> None:
+        extra = [(b"retry-after", v.encode()) for k, v in (exc.headers or {}).items()
+                 if k.lower() == "retry-after"]
+        await send_error(send, exc.status_code, exc.error, exc.message, _CLOSE + extra)
+
+    async def _joined(self, chunks: list[bytes], total: int, lease: Lease,
+                      send: Send) -> bytes | None:
+        """One bytes object; the join's temporary copy is counted while it exists."""
+        if not chunks:
+            return b""
+        try:
+            await lease.areserve(total, "joining the request body")
+        except Overloaded as exc:
+            await self._refused(send, exc)
+            return None
+        try:
+            return b"".join(chunks)
+        finally:
+            chunks.clear()
+            lease.give_back(total)
+
+    async def _timed_out(self, send: Send, shutting_down: bool) -> None:
+        settings = self.runtime.settings
+        if shutting_down:
+            await send_error(send, 503, "not_ready", "the server is shutting down; the request "
+                             "body had not arrived", _CLOSE)
+            return
+        self.runtime.metrics.rejected.labels("body_timeout").inc()
+        await send_error(send, 408, "body_timeout", "the request body did not arrive within "
+                         f"{settings.body_timeout_s:g} s", _CLOSE)

@@ -1,0 +1,16 @@
+"""Serving state: the service reads the current version of a bundle store."""
+from impactnet.models.bundle.format import read_bundle
+from impactnet.models.bundle.store import VERSIONS, set_current
+from impactnet.service.state import read_for_scene
+from tests.models.bundle.test_store import _store
+
+
+def test_the_service_reads_the_current_version_of_a_store(tmp_path):
+    store = _store(tmp_path)
+    set_current(store, "v2")
+    manifest = read_bundle(store / VERSIONS / "v2").manifest
+
+    class View:  # the scene view read_for_scene checks the bundle's scene against
+        name, hash = manifest["scene"]["name"], manifest["scene"]["hash"]
+
+    assert read_for_scene(store, View()).version == manifest["version"]

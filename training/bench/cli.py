@@ -1,0 +1,112 @@
+"""CLI glue of `impactnet bench`: every predictor's speed and error, measured in one run.
+
+    impactnet bench [--quick] [--out bench_results] [--seed 0] [--scene quay_crane] [--http]
+                    [--grids 1,2,4,8,16,32,64] [--bundle PATH]
+    impactnet bench exact [--quick] [--json PATH] [--seed 0] [--baseline DIR]
+
+The first form measures the exact solver, python-fcl's Box-Box, the paper's polygon method at
+each grid size and the learned predictors (``models.load_predictor``; "not available: <reason>"
+while there is no bundle) on the scene's first-contact poses and the paper's Figure 2 case,
+with a "vs MuJoCo" column (every method against MuJoCo's box-box and a grid centre of pressure,
+:mod:`impactnet.training.bench.vs_mujoco`; noted as not available without the dev extra's mujoco),
+and writes ``results.md``, ``results.json``, ``pareto.png``, ``polygon_grid.png`` and
+``figure2_tilt.png`` into ``--out`` (the Markdown is also printed). See
+:mod:`impactnet.training.bench`. The second form is the exact solver's own benchmark
+(:mod:`impactnet.training.bench.exact`).
+
+``impactnet/cli.py`` calls :func:`add_arguments` on its ``bench`` subparser and :func:`run`
+with the parsed arguments. Without that wiring: ``python -m impactnet.training.bench.cli [...]``.
+Nothing heavy is imported at module level (numpy comes after the thread count is pinned).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+DEFAULT_OUT = "bench_results"
+_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _grids(text: str) -> tuple[int, ...]:
+    try:
+        values = tuple(int(x) for x in text.split(",") if x.strip())
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected integers like 1,2,4, got {text!r}") from exc
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(f"grid sizes must be >= 1, got {text!r}")
+    return values
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `impactnet bench`, and its `exact` sub-command."""
+    parser.add_argument("--quick", action="store_true",
+                        help="the smoke-test plan: small sets, few repeats (under a minute)")
+    parser.add_argument("--out", default=DEFAULT_OUT,
+                        help=f"folder of the report, JSON and figures (default {DEFAULT_OUT})")
+    parser.add_argument("--seed", type=int, default=0, help="pose seed (default 0)")
+    parser.add_argument("--scene", default=None,
+                        help="scene name or TOML path (default quay_crane)")
+    parser.add_argument("--http", action="store_true",
+                        help="also measure /v1/contact and /v1/contact/batch through a server "
+                             "started on 127.0.0.1 (a free port) and stopped at the end")
+    parser.add_argument("--grids", type=_grids, default=None,
+                        help="polygon grid sizes n, comma-separated (default 1,2,4,8,16,32,64)")
+    parser.add_argument("--bundle", default=None,
+                        help="learned bundle folder (default: the shipped bundle of the scene)")
+    sub = parser.add_subparsers(dest="bench_command", metavar="BENCH")
+    exact = sub.add_parser(
+        "exact", help="pairs/s of impactnet.models.box.exact.box_box next to python-fcl, one "
+                      "thread",
+        description="Pairs/s and microseconds per pair of impactnet.models.box.exact.box_box at N "
+                    "= 1, 1e3, "
+                    "1e5 on first-contact cube poses, next to python-fcl's Box-Box collide "
+                    "called in a Python loop over the same poses, on one thread.")
+    exact.add_argument("--quick", action="store_true", help="fewer repeats (a smoke run)")
+    exact.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    exact.add_argument("--seed", type=int, default=0, help="pose generator seed (default 0)")
+    exact.add_argument("--baseline", metavar="DIR",
+                       help="an earlier checkout (e.g. from `git worktree add DIR REV`): its "
+                            "N = 1 time is measured next to this one's, alternately")
+
+
+def _pin_single_thread() -> None:
+    for name in _THREAD_VARIABLES:
+        os.environ[name] = "1"
+    if "numpy" in sys.modules:
+        print("impactnet bench: warning: numpy was imported before the thread count was "
+              "pinned; BLAS may use several threads.", file=sys.stderr)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmark (or ``bench exact``); 0 on success."""
+    _pin_single_thread()
+    if getattr(args, "bench_command", None) == "exact":
+        from impactnet.training.bench.exact import run as run_exact
+
+        return run_exact(quick=args.quick, json_path=args.json, seed=args.seed,
+                         baseline=args.baseline)
+    from impactnet.training.bench import report
+    from impactnet.training.bench.measure import QUICK, BenchConfig, with_overrides
+    from impactnet.training.bench.runner import run_bench
+
+    config = with_overrides(QUICK if args.quick else BenchConfig(), seed=args.seed,
+                            scene=args.scene, http=args.http or None,
+                            grid_sizes=args.grids, bundle=args.bundle)
+    results = run_bench(config, mode="quick" if args.quick else "full")
+    paths = report.write(results, Path(args.out))
+    print(report.markdown(results))
+    print(f"impactnet bench: wrote {', '.join(str(p) for p in paths)} in "
+          f"{results['seconds']:.0f} s", file=sys.stderr)
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="impactnet bench", description=__doc__.split("\n")[0])
+    add_arguments(parser)
+    return run(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
