@@ -79,7 +79,11 @@ def configured_bundle(setting: str | None, scene: SceneView) -> Path | None:
 
 def read_for_scene(path: Path, scene: SceneView) -> Bundle:
     """Steps ``read`` and ``scene_hash``: the verified bundle at ``path``, built for ``scene``."""
-    if not path.is_dir():
+    try:
+        found = path.is_dir()
+    except OSError as exc:  # e.g. a name too long for the file system (ENAMETOOLONG)
+        raise LoadError("read", f"bundle {str(path)[:200]!r}: {exc.strerror}", path) from exc
+    if not found:
         raise LoadError("read", f"bundle {str(path)!r}: no such folder", path)
     try:
         check_bundle_files(path)  # regular files within their caps: nothing can block

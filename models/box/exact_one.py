@@ -26,6 +26,7 @@ from impactnet.models.box.sat import (
 )
 from impactnet.models.box.scalar_inputs import single_pair  # noqa: F401  (re-exported: the N = 1 entry)
 from impactnet.models.geometry import box_features as bf
+from impactnet.models.geometry.rotations import quaternion_matrix
 
 _QUAD = [tuple(s) for s in QUAD_SIGNS.tolist()]
 # impactnet.models.box.manifold's tables as Python ints (the scalar path avoids NumPy scalars).
@@ -45,10 +46,8 @@ def dot(a, b) -> float:
 
 def _quat_matrix(q):
     """Rotation matrix (rows) of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = q
-    return ((1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
-            (2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
-            (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)))
+    m = quaternion_matrix(*q)
+    return m[0:3], m[3:6], m[6:9]
 
 
 def overlaps(ha, hb, rot, t, scale):

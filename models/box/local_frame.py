@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from impactnet.models.geometry.rotations import quaternion_matrix
+
 #: Rows of the input block built by :func:`input_columns`, in the order of the solver's
 #: arguments: size_a, position_a, quaternion_a, size_b, position_b, quaternion_b.
 INPUT_SLICES = (slice(0, 3), slice(3, 6), slice(6, 10), slice(10, 13), slice(13, 16),
@@ -30,15 +32,6 @@ def input_columns(inputs, start: int, stop: int) -> np.ndarray:
     for rows, value in zip(INPUT_SLICES, inputs):
         block[rows] = value[start:stop].T
     return block
-
-
-def quaternion_matrix(w, x, y, z) -> tuple:
-    """Rotation matrix entries (row-major, 9 arrays) of unit quaternions (w, x, y, z)."""
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
-    return (1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy),
-            2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx),
-            2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy))
 
 
 def matvec(matrix: np.ndarray, v) -> np.ndarray:

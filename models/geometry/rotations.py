@@ -76,6 +76,20 @@ def _canonical(q):
     return q * np.where(q[:, :1] < 0.0, -1.0, 1.0)
 
 
+def quaternion_matrix(w, x, y, z) -> tuple:
+    """The one quaternion-to-matrix formula of impactnet: the 9 entries (row-major) of the
+    rotation of a unit quaternion ``(w, x, y, z)``.
+
+    Generic arithmetic: the components may be Python floats (the N = 1 paths) or arrays of any
+    shape (the batch paths), and every path therefore rounds the same way.
+    """
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    return (1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy),
+            2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx),
+            2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy))
+
+
 def quaternion_to_matrix(q):
     """Rotation matrices of unit quaternions.
 
@@ -89,12 +103,8 @@ def quaternion_to_matrix(q):
     numpy.ndarray, shape (n, 3, 3)
         ``R`` with ``v_world = R @ v_body``; ``q`` and ``-q`` give the same ``R``.
     """
-    w, x, y, z = np.moveaxis(_rows(q, (4,), "quaternion"), 1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], axis=1)
+    q = _rows(q, (4,), "quaternion")
+    return np.stack(quaternion_matrix(*q.T), axis=-1).reshape(-1, 3, 3)
 
 
 def matrix_to_quaternion(R):

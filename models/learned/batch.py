@@ -40,10 +40,11 @@ import numpy as np
 
 from impactnet.models import contacts as ct
 from impactnet.models.box.exact import box_box
+from impactnet.models.box.scalar_inputs import single_pair
 from impactnet.models.bundle.format import Bundle
 from impactnet.models.learned import pose_columns as pc
 from impactnet.models.learned.canonical import FALLBACK_NORMAL, FLIP_FEATURES, N_POSE_FEATURES
-from impactnet.models.learned.one_pair import Prediction, one_pair, predict_one
+from impactnet.models.learned.one_pair import Prediction, predict_one
 from impactnet.models.learned.pair_dispatch import (
     UNSUPPORTED,
     PairTable,
@@ -120,7 +121,7 @@ class LearnedPredictor:
     def __call__(self, size_a, position_a, quaternion_a, size_b, position_b,
                  quaternion_b) -> ct.Contacts:
         values = (size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
-        one = one_pair(values)
+        one = single_pair(*values)
         if one is not None:
             return predict_one(self, one, spread=False)[0]
         return self._predict(values, spread=False).contacts
@@ -139,7 +140,7 @@ class LearnedPredictor:
                 quaternion_b) -> Prediction:
         """Contacts of N pairs with the committee's spread; arguments as ``box_box``."""
         values = (size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
-        one = one_pair(values)
+        one = single_pair(*values)
         if one is not None:
             contacts, normal_spread, point_spread = predict_one(self, one)
             return Prediction(contacts, np.array([normal_spread]), np.array([point_spread]))

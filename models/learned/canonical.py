@@ -33,6 +33,7 @@ from impactnet.models.box import local_frame as lf
 from impactnet.models.box.exact import CHUNK_ROWS, prepare_inputs
 from impactnet.models.contacts import CONTACT_TYPE_CODES, CONTACT_TYPES, NONE
 from impactnet.models.geometry import box_features as bf
+from impactnet.models.geometry.rotations import quaternion_to_matrix
 
 #: Name of the feature layout (``mlps.<m>.inputs`` in a bundle manifest).
 FEATURES_VERSION = "pose-v1"
@@ -118,10 +119,9 @@ def relative_pose(size_a, position_a, quaternion_a, size_b, position_b,
 
 def world_rotation(quaternion) -> np.ndarray:
     """Rotation matrices (n, 3, 3) (``v_world = R v_body``) of quaternions (n, 4) or (4,),
-    normalised first, with the formulas of :mod:`impactnet.models.box.local_frame`."""
+    normalised first (:func:`impactnet.models.geometry.rotations.quaternion_to_matrix`)."""
     q = np.asarray(quaternion, dtype=np.float64).reshape(-1, 4)
-    q = q / np.sqrt((q * q).sum(axis=1))[:, None]
-    return np.stack(lf.quaternion_matrix(*q.T), axis=-1).reshape(-1, 3, 3)
+    return quaternion_to_matrix(q / np.sqrt((q * q).sum(axis=1))[:, None])
 
 
 def canonicalize(rotation, translation) -> Canonical:

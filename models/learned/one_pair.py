@@ -18,13 +18,11 @@ from typing import NamedTuple
 import numpy as np
 
 from impactnet.models import contacts as ct
-from impactnet.models.box.exact_one import box_box_one, single_pair
-from impactnet.models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
-from impactnet.models.geometry.rotations import QUATERNION_MIN_NORM
+from impactnet.models.box.exact_one import box_box_one
+from impactnet.models.geometry.rotations import quaternion_matrix
 from impactnet.models.learned.canonical import FALLBACK_NORMAL, FLIP_FEATURES, NORMAL_NORM_MIN
 from impactnet.models.learned.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UnsupportedPairError
 from impactnet.models.learned.pair_runtime import AUTO_EXACT_TYPES
-from impactnet.models.learned.pose_columns import WIDTHS
 from impactnet.models.learned.region_label import label_one
 
 _PADDING = [0.0] * (3 * ct.MAX_MANIFOLD_POINTS)
@@ -42,59 +40,10 @@ class Prediction(NamedTuple):
     point_spread: np.ndarray  # (n,) metres, largest distance between member points
 
 
-def one_pair(values):
-    """The six inputs as validated float lists (quaternions normalised) if they are one
-    valid pair, else None (then the batch path takes them, and raises on invalid input).
-
-    Gives the answer of :func:`impactnet.models.box.exact_one.single_pair`, which it calls for
-    anything
-    but float64 vectors and float lists; a batch is recognised by its size first, before
-    anything is converted.
-    """
-    rows = []
-    for value, width in zip(values, WIDTHS):
-        if type(value) is np.ndarray:
-            if value.size != width:
-                return None
-            if value.dtype != np.float64 or value.ndim != 1:
-                return single_pair(*values)
-            rows.append(value.tolist())
-        elif type(value) is list and len(value) == width:
-            rows.append(value)
-        elif isinstance(value, list | tuple) and len(value) not in (1, width):
-            return None
-        else:
-            return single_pair(*values)
-    size_a, pa, qa, size_b, pb, qb = rows
-    if not all(type(v) is float for row in rows for v in row):
-        return single_pair(*values)
-    if not math.isfinite(sum(size_a) + sum(pa) + sum(qa) + sum(size_b) + sum(pb) + sum(qb)):
-        return single_pair(*values)  # a non-finite value, or a sum that overflows
-    for size in (size_a, size_b):
-        if not (min(size) >= SIZE_MIN_M and max(size) <= SIZE_MAX_M):
-            return None
-    for p in (pa, pb):
-        if not (abs(p[0]) <= POSITION_MAX_M and abs(p[1]) <= POSITION_MAX_M
-                and abs(p[2]) <= POSITION_MAX_M):
-            return None
-    units = []
-    for w, x, y, z in (qa, qb):
-        norm = math.sqrt(w * w + x * x + y * y + z * z)  # summed as single_pair sums
-        if not norm >= QUATERNION_MIN_NORM:
-            return None
-        units.append([w / norm, x / norm, y / norm, z / norm])
-    return [size_a, pa, units[0], size_b, pb, units[1]]
-
-
 def _canonical(values, inv_scale):
     """Features (12,) float32, R_A S (9 floats, row-major) and the flip indices of S, T."""
     _, pa, (aw, ax, ay, az), _, pb, (bw, bx, by, bz) = values
-    a = (1 - 2 * (ay * ay + az * az), 2 * (ax * ay - aw * az), 2 * (ax * az + aw * ay),
-         2 * (ax * ay + aw * az), 1 - 2 * (ax * ax + az * az), 2 * (ay * az - aw * ax),
-         2 * (ax * az - aw * ay), 2 * (ay * az + aw * ax), 1 - 2 * (ax * ax + ay * ay))
-    b = (1 - 2 * (by * by + bz * bz), 2 * (bx * by - bw * bz), 2 * (bx * bz + bw * by),
-         2 * (bx * by + bw * bz), 1 - 2 * (bx * bx + bz * bz), 2 * (by * bz - bw * bx),
-         2 * (bx * bz - bw * by), 2 * (by * bz + bw * bx), 1 - 2 * (bx * bx + by * by))
+    a, b = quaternion_matrix(aw, ax, ay, az), quaternion_matrix(bw, bx, by, bz)
     d0, d1, d2 = pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]
     t = (a[0] * d0 + a[3] * d1 + a[6] * d2, a[1] * d0 + a[4] * d1 + a[7] * d2,
          a[2] * d0 + a[5] * d1 + a[8] * d2)

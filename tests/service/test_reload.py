@@ -171,6 +171,8 @@ def test_corrupting_the_configured_folder_keeps_the_loaded_bundle(admin):
     (b'{"bundle": ""}', {"Content-Type": "application/json"}, 422),
     (b'{"bundle": 3}', {"Content-Type": "application/json"}, 422),
     (b'bundle=x', {"Content-Type": "application/x-www-form-urlencoded"}, 415),
+    # regression (schemathesis): whitespace alone is not an empty body, and not JSON
+    (b' \t\r\n', {"Content-Type": "application/json"}, 422),
 ])
 def test_bad_reload_bodies(admin, content, headers, status):
     assert_error(admin.post(RELOAD, content=content, headers=AUTH | headers), status)

@@ -48,7 +48,7 @@ def check_token(credentials: HTTPAuthorizationCredentials | None, token: str) ->
 
 def parse_body(raw: bytes, content_type: str | None) -> ReloadRequest:
     """An empty body, or a JSON object ``{"bundle": "<folder>"}`` (both keys optional)."""
-    if not raw.strip():
+    if not raw:  # whitespace alone is not JSON: it goes to the parser and is refused
         return ReloadRequest()
     return validated_unique(ReloadRequest, raw, content_type)
 

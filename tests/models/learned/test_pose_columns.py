@@ -12,7 +12,6 @@ from impactnet.models.geometry import box_features as bf
 from impactnet.models.geometry.rotations import InvalidRotationError
 from impactnet.models.learned import canonical as cn
 from impactnet.models.learned import pose_columns as pc
-from impactnet.models.learned.one_pair import one_pair
 from tests.models.helpers import KEYS, labelled_rows
 
 #: Agreement of the float32 column path's features with the float64 reference: a few float32
@@ -138,21 +137,6 @@ def test_valid_inputs_are_accepted_unnormalised():
     assert inputs.swapped().size_a.shape == (1, 3) and inputs.take(np.array([1])).n == 1
 
 
-@pytest.mark.parametrize("values", [
-    [[1.0, 2.0, 3.0], [0.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [0.5, 0.2, 1.9],
-     [0.0, 0.3, 0.0, 0.4]],
-    [np.array([1.0, 2.0, 3.0]), np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]),
-     np.array([[1.0, 1.0, 1.0]]), [0.5, 0.2, 1.9], (0.0, 0.3, 0.0, 0.4)],
-    [[1, 2, 3], [0, 0, 0], [1, 0, 0, 0], [1, 1, 1], [0, 0, 1], [1, 0, 0, 0]],
-    [[1.0, 2.0, np.inf], [0.0] * 3, [1.0, 0, 0, 0], [1.0] * 3, [0.0] * 3, [1.0, 0, 0, 0]],
-    [[1.0, 2.0, 3.0], [0.0] * 3, [0.0] * 4, [1.0] * 3, [0.0] * 3, [1.0, 0, 0, 0]],
-    [[1.0, 2.0, 3.0], [2e9, 0.0, 0.0], [1.0, 0, 0, 0], [1.0] * 3, [0.0] * 3, [1.0, 0, 0, 0]],
-    [[1e300, 1e300, 1e300], [0.0] * 3, [1.0, 0, 0, 0], [1.0] * 3, [0.0] * 3, [1.0, 0, 0, 0]],
-])
-def test_one_pair_equals_single_pair(values):
-    assert one_pair(values) == single_pair(*values)
-
-
-def test_one_pair_declines_batches():
-    assert one_pair(_args()) is None
-    assert one_pair([[[1.0, 2.0, 3.0]] * 2] + _args()[1:]) is None
+def test_the_one_pair_validator_declines_batches():
+    assert single_pair(*_args()) is None
+    assert single_pair(*([[[1.0, 2.0, 3.0]] * 2] + _args()[1:])) is None
