@@ -21,19 +21,18 @@ from impactnet.models.box.exact import box_box
 from impactnet.models.bundle.format import Bundle, BundleError, read_bundle
 from impactnet.models.bundle.store import resolve_bundle
 from impactnet.models.contacts import Contacts
-from impactnet.models.learned.batch import (
-    AutoPredictor,
-    CommitteePredictor,
-    LearnedPredictor,
-    SinglePredictor,
-)
+from impactnet.models.learned.batch import CommitteePredictor, SinglePredictor
+from impactnet.models.learned.chain import FallbackChain
 from impactnet.models.learned.one_pair import Prediction
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 
 #: The bundle of the default scene, shipped in the repository.
 DEFAULT_BUNDLE = Path(__file__).resolve().parent / "bundles" / "quay_crane"
 PREDICTOR_NAMES = ("exact", "single", "committee", "auto")
-_LEARNED = {"single": SinglePredictor, "committee": CommitteePredictor, "auto": AutoPredictor}
+#: How each learned name is built from a bundle: ``auto`` is a chain, the committee first and
+#: the exact solver for what it declines.
+_LEARNED = {"single": SinglePredictor, "committee": CommitteePredictor,
+            "auto": lambda bundle: FallbackChain(CommitteePredictor(bundle))}
 
 __all__ = ["DEFAULT_BUNDLE", "PREDICTOR_NAMES", "BundleError", "ExactPredictor", "Prediction",
            "UnsupportedPairError", "load_predictor"]
@@ -82,7 +81,7 @@ def load_predictor(name: str = "auto", bundle: str | os.PathLike | Bundle | None
         bundle = DEFAULT_BUNDLE
     if not isinstance(bundle, Bundle):
         bundle = read_bundle(resolve_bundle(bundle))  # a store reads its current version
-    predictor: LearnedPredictor = _LEARNED[name](bundle)
+    predictor = _LEARNED[name](bundle)
     if not any(pair.supports(name) for pair in predictor.pairs) and name != "auto":
         raise BundleError(f"bundle {bundle.version} has no {name!r} models for any pair")
     return predictor

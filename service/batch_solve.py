@@ -18,7 +18,7 @@ import numpy as np
 from impactnet.service.api.errors import UnsupportedPair
 from impactnet.service.codecs.pairs import paper_angles, predict_checked
 from impactnet.service.limits.budget import Lease
-from impactnet.service.predictors import PairInputs, ServedMode
+from impactnet.service.predictors import PairInputs
 
 #: Rows per predictor call. The chunk's working set (below) stays ~16 MiB, and the per-call cost
 #: of the predictors (~0.1 ms) stays far below a chunk's solve (~5-15 ms).
@@ -106,7 +106,7 @@ def _fill(out: dict, contacts, pairs: PairInputs, start: int, stop: int) -> None
         out["paper_angles"][start:stop] = paper_angles(contacts, pairs)
 
 
-def solve_batch(predictor: ServedMode, pairs: PairInputs, include, lease: Lease) -> dict:
+def solve_batch(predictor, pairs: PairInputs, include, lease: Lease) -> dict:
     """The answer's arrays (:data:`ANSWER_LAYOUT`, plus ``predictor_names``) for all pairs.
 
     Raises UnsupportedPair (422) naming every unsupported row of a strict learned mode,
@@ -130,6 +130,6 @@ def solve_batch(predictor: ServedMode, pairs: PairInputs, include, lease: Lease)
             _fill(out, contacts, chunk, start, stop)
             out["predictor_code"][start:stop] = names.codes(contacts.predictor)
     if unsupported:
-        raise UnsupportedPair(predictor.name, unsupported, covered, True)
+        raise UnsupportedPair(predictor.mode, unsupported, covered, True)
     out["predictor_names"] = names.finish(out["predictor_code"])
     return out

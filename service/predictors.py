@@ -1,8 +1,8 @@
 """Predictors by mode, and the immutable serving state that a request reads once.
 
 Modes: ``exact`` (the SAT solver, always there), ``single``, ``committee``, ``auto`` (learned,
-from a bundle); :class:`ServedMode` wraps each of :func:`impactnet.models.load_predictor`'s
-predictors;
+from a bundle): the predictors of :func:`impactnet.models.load_predictor`, called directly
+with :func:`pair_args`;
 :mod:`impactnet.service.state` builds them). A mode that cannot answer raises
 :class:`impactnet.service.api.errors.ModeUnavailable` (409: nothing serves it); a strict learned
 mode on a
@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from impactnet import __version__
-from impactnet.models.contacts import Contacts
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.predictors import PREDICTOR_NAMES
 from impactnet.service.api.errors import ModeUnavailable
@@ -55,24 +54,13 @@ class PairInputs:
         return int(self.position_a.shape[0])
 
 
-class ServedMode:
-    """One mode's predictor (one of :func:`impactnet.models.load_predictor`'s, the exact solver
-    included) behind the service's interface: N validated pairs in, N contacts out.
-
-    ``Contacts.predictor`` names who answered each row: the mode itself, or in ``auto``
-    "committee" / "exact" (fallback). One pair takes the predictors' plain-float N = 1 path.
-    """
-
-    def __init__(self, mode: str, model) -> None:
-        self.name = mode  # e.g. "exact"
-        self.model = model  # a callable with box_box's signature
-
-    def predict(self, pairs: PairInputs) -> Contacts:
-        if len(pairs) == 1:
-            return self.model(pairs.size_a[0], pairs.position_a[0], pairs.quaternion_a[0],
-                              pairs.size_b[0], pairs.position_b[0], pairs.quaternion_b[0])
-        return self.model(pairs.size_a, pairs.position_a, pairs.quaternion_a, pairs.size_b,
-                          pairs.position_b, pairs.quaternion_b)
+def pair_args(pairs: PairInputs) -> tuple:
+    """The six argument arrays of a predictor call (``box_box``'s signature) for ``pairs``:
+    the rows themselves for one pair, so that the predictors take their plain-float N = 1
+    path."""
+    args = (pairs.size_a, pairs.position_a, pairs.quaternion_a, pairs.size_b, pairs.position_b,
+            pairs.quaternion_b)
+    return tuple(a[0] for a in args) if len(pairs) == 1 else args
 
 
 @dataclass(frozen=True)
@@ -80,14 +68,15 @@ class ServingState:
     """Everything a request needs, fixed for the state's lifetime."""
 
     scene: SceneView  # bodies a request may name
-    predictors: dict[str, ServedMode]  # mode -> predictor, for the modes that can answer
+    # mode -> predictor (impactnet.models.load_predictor's; .mode names it), modes that answer
+    predictors: dict
     unavailable: dict[str, str]  # mode -> why it cannot answer
     model_version: str  # the bundle's version, or the exact solver's; in every response
     default_mode: str = "exact"  # mode of requests that name none; always one it serves
     bundle: dict | None = None  # description of the learned bundle (GET /v1/models) or None
     loaded_at: float = field(default_factory=time.time)  # UNIX seconds
 
-    def predictor(self, mode: str) -> ServedMode:
+    def predictor(self, mode: str):
         """The predictor of ``mode``; raises ModeUnavailable (409) naming the reason."""
         found = self.predictors.get(mode)
         if found is None:
@@ -123,8 +112,8 @@ def warm_up(state: ServingState) -> None:
     for predictor in state.predictors.values():
         for pairs in (one, two):
             try:
-                result = predictor.predict(pairs)
+                result = predictor(*pair_args(pairs))
             except UnsupportedPairError:
                 break
-            if predictor.name == "exact" and not bool(result.colliding[0]):
+            if predictor.mode == "exact" and not bool(result.colliding[0]):
                 raise RuntimeError("warm-up: the exact solver misses a contact")

@@ -44,7 +44,7 @@ from impactnet.models.geometry.rotations import (
 )
 from impactnet.models.learned.region_label import unclipped_points
 from impactnet.models.metrics import angle_deg
-from impactnet.service.predictors import PairInputs, ServedMode
+from impactnet.service.predictors import PairInputs, pair_args
 
 #: Seed of the smoke poses (fixed: a bundle's smoke result is reproducible).
 SMOKE_SEED = 20240601
@@ -141,7 +141,7 @@ def _check_agreement(figures: dict, limits: SmokeLimits, where: str) -> None:
             f"(maximum {limits.point_median_max:g} L)")
 
 
-def smoke_test(predictors: dict[str, ServedMode], bundle: Bundle, n: int,
+def smoke_test(predictors: dict, bundle: Bundle, n: int,
                limits: SmokeLimits | None = None) -> dict:
     """Run the smoke test of ``bundle`` on the learned ``predictors`` (mode -> predictor of
     the state being built); returns the figures per pair and mode, raises SmokeTestFailed."""
@@ -161,8 +161,8 @@ def smoke_test(predictors: dict[str, ServedMode], bundle: Bundle, n: int,
                 continue  # a strict mode without models for this pair answers 422 for it
             where = f"pair {key}, mode {mode}"
             try:
-                batch = predictor.predict(pairs)
-                one = predictor.predict(take(pairs, slice(0, 1)))
+                batch = predictor(*pair_args(pairs))
+                one = predictor(*pair_args(take(pairs, slice(0, 1))))
             except Exception as exc:  # noqa: BLE001 - any failure is the bundle's
                 raise SmokeTestFailed(f"{where}: {type(exc).__name__}: {exc}") from exc
             _check_answer(batch, n, where)

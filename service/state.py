@@ -39,7 +39,6 @@ from impactnet.service.limits.bundle_guard import check_bundle_files
 from impactnet.service.predictors import (
     LEARNED_MODES,
     NO_BUNDLE_REASON,
-    ServedMode,
     ServingState,
     exact_model_version,
 )
@@ -105,11 +104,11 @@ def read_for_scene(path: Path, scene: SceneView) -> Bundle:
 
 
 def learned_predictors(bundle: Bundle) -> tuple[dict, dict[str, str]]:
-    """Step ``build``: (mode -> ServedMode, mode -> why it is unavailable)."""
+    """Step ``build``: (mode -> predictor, mode -> why it is unavailable)."""
     predictors, unavailable = {}, {}
     for mode in LEARNED_MODES:
         try:
-            predictors[mode] = ServedMode(mode, load_predictor(mode, bundle))
+            predictors[mode] = load_predictor(mode, bundle)
         except BundleError as exc:
             unavailable[mode] = str(exc)
     return predictors, unavailable
@@ -170,7 +169,7 @@ def state_for(scene: SceneView, path: Path | None, settings: Settings,
               on_step=_no_report) -> ServingState:
     """Steps ``read`` to ``smoke`` for ``scene`` and the bundle at ``path`` (None: none);
     ``on_step(name)`` is called as each step begins (a reload reports where it stands)."""
-    predictors: dict = {"exact": ServedMode("exact", load_predictor("exact"))}
+    predictors: dict = {"exact": load_predictor("exact")}
     if path is None:
         unavailable = {m: NO_BUNDLE_REASON for m in LEARNED_MODES}
         mode = default_mode(settings.default_mode, predictors, unavailable)

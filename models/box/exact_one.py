@@ -9,6 +9,7 @@ docstrings explain them. The test suite checks that both paths agree on every fu
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from impactnet.models import contacts as ct
 from impactnet.models.box.manifold import FACE_INC_CODES as FACE_INC_CODES_ARRAY
@@ -308,16 +309,41 @@ def relative_frame(size_a, position_a, quaternion_a, size_b, position_b, quatern
     return ha, hb, rot, t, rot_a
 
 
+class Decision(NamedTuple):
+    """Stage 2 of one pair: its frame and the separating-axis decision by the tie rule. The
+    region labeller of the learned predictors computes it, and :func:`answer_one` finishes the
+    exact answer from it without deciding again."""
+
+    frame: tuple  # (ha, hb, rot, t, rot_a, scale): half-extents, B in A's frame, A's rotation
+    colliding: bool
+    axis: int  # 0-14 (models.contacts), the contact axis
+    normal: list  # 3 floats, A's frame, from A towards B
+    depth: float  # metres, the axis overlap
+    edge: tuple | None  # (point, feature_a, feature_b) of an edge-edge contact, else None
+
+
+def decide_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b) -> Decision:
+    """The :class:`Decision` of one validated pair (arguments as :func:`box_box_one`)."""
+    ha, hb, rot, t, rot_a = relative_frame(size_a, position_a, quaternion_a, size_b,
+                                           position_b, quaternion_b)
+    scale = max(ha) + max(hb)
+    return Decision((ha, hb, rot, t, rot_a, scale), *contact_axis(ha, hb, rot, t, scale))
+
+
 def box_box_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b):
     """Exact contact of one validated pair; returns a one-row `Contacts`.
 
     Parameters are lists of floats, already validated: sizes (3,) > 0, positions (3,), unit
     quaternions (4,) (w, x, y, z); see :func:`single_pair`.
     """
-    ha, hb, rot, t, rot_a = relative_frame(size_a, position_a, quaternion_a, size_b,
-                                           position_b, quaternion_b)
-    scale = max(ha) + max(hb)
-    colliding, axis, normal, depth, edge = contact_axis(ha, hb, rot, t, scale)
+    decision = decide_one(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
+    return answer_one(decision, position_a, position_b)
+
+
+def answer_one(decision: Decision, position_a, position_b):
+    """Stage 3 of one pair from its :class:`Decision`: the one-row `Contacts`."""
+    ha, hb, rot, t, rot_a, scale = decision.frame
+    _, colliding, axis, normal, depth, edge = decision
     code, feature_a, feature_b = ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE
     manifold = []
     point = None

@@ -1,28 +1,25 @@
-"""The learned predictors ``single``, ``committee`` and ``auto`` (docs/learned_predictors.md).
+"""The learned predictors ``single`` and ``committee`` (docs/learned_predictors.md); ``auto``
+is the chain of :mod:`impactnet.models.learned.chain`, the committee then the exact solver.
 
-Each is a callable with :func:`impactnet.models.box.exact.box_box`'s signature returning `Contacts`
-with
-``confidence`` and ``predictor`` filled; :meth:`LearnedPredictor.predict` also returns the
-committee's spread. Stages of a call:
+Each is a callable with :func:`impactnet.models.box.exact.box_box`'s signature returning
+`Contacts` with ``confidence`` and ``predictor`` filled; :meth:`LearnedPredictor.predict` also
+returns the committee's spread. Stages of a call:
 
 1. Inputs are validated as the exact solver validates them
-(:mod:`impactnet.models.learned.pose_columns`); a
-   single pair takes the plain-Python path (:mod:`impactnet.models.learned.one_pair`).
-2. Dispatch (:mod:`impactnet.models.learned.pair_dispatch`): rows are grouped by the pair model
-their sizes
-   match (a loop over groups, not rows); rows of a swapped pair are solved swapped and
-   flipped back. Unsupported rows raise :class:`UnsupportedPairError` in ``single`` and
-   ``committee`` (before any work) and go to the exact solver in ``auto``.
+   (:mod:`impactnet.models.learned.pose_columns`); a single pair takes the plain-Python path
+   (:mod:`impactnet.models.learned.one_pair`).
+2. Dispatch (:mod:`impactnet.models.learned.pair_dispatch`): rows are grouped by the pair
+   model their sizes match (a loop over groups, not rows); rows of a swapped pair are solved
+   swapped and flipped back. Rows of a pair without this mode's models are flagged
+   ``unsupported``: the strict modes raise :class:`UnsupportedPairError` for them.
 3. Per group, in blocks of ``ROW_BLOCK`` rows: canonical features, then ``single``'s MLP, or
-   the region classifier (:mod:`impactnet.models.learned.region_label`, the exact solver's decision
-   without
-   the clipping). ``committee`` then sorts the group's rows by region and runs each
-   region's committee once on all its rows (a loop over regions), and a second block pass
-   maps the canonical points to the world.
-4. The exact solver answers, in one call (:func:`impactnet.models.box.exact.box_box`), the rows
-whose
-   region has no committee and, in ``auto``, the rows whose confidence, spread or depth fail
-   the pair's thresholds and the unsupported rows.
+   the region classifier (:mod:`impactnet.models.learned.region_label`, the exact solver's
+   decision without the clipping). ``committee`` then sorts the group's rows by region and
+   runs each region's committee once on all its rows (a loop over regions), and a second
+   block pass maps the canonical points to the world. Asked for the spread, it also flags the
+   rows its pair's calibrated thresholds do not trust (``unsure``, for the auto chain).
+4. The exact solver answers, in one call (:func:`impactnet.models.box.exact.box_box`), the
+   rows whose region has no committee (``unknown``).
 
 Fields of a learned answer: ``single`` predicts no contact type, so its rows have
 ``colliding`` True, ``contact_type_code`` 0 and features / axis -1 (not predicted), and
@@ -57,7 +54,7 @@ from impactnet.models.learned.region_label import input_block, label_block, mirr
 
 _FIELDS = ("colliding", "normal", "depth", "point", "contact_type_code", "feature_a",
            "feature_b", "axis", "manifold_count", "confidence", "predictor", "normal_spread",
-           "point_spread", "unsure")
+           "point_spread", "unsure", "unknown")
 
 
 class Output:
@@ -66,6 +63,9 @@ class Output:
     def __init__(self, n: int):
         self.n = n
         self.colliding, self.unsure = np.ones(n, bool), np.zeros(n, bool)
+        # rows no model of this mode answers: a pair without its models, a region without a
+        # committee; `unsure` (above): answered, but the pair's auto thresholds do not trust it
+        self.unsupported, self.unknown = np.zeros(n, bool), np.zeros(n, bool)
         self.normal, self.point = np.empty((n, 3)), np.empty((n, 3))
         self.depth, self.confidence = np.empty(n), np.empty(n)
         self.contact_type_code, self.axis = np.zeros(n, np.int8), np.full(n, -1, np.int8)
@@ -86,7 +86,7 @@ class Output:
 
     def put_exact(self, rows: np.ndarray, exact: ct.Contacts) -> None:
         """Copy exact-solver answers into ``rows``."""
-        for name in _FIELDS[:-3]:
+        for name in _FIELDS[:-4]:
             getattr(self, name)[rows] = getattr(exact, name)
         self.normal_spread[rows] = self.point_spread[rows] = 0.0
         self.slots[:, rows] = exact.manifold_points.transpose(1, 0, 2)
@@ -148,21 +148,27 @@ class LearnedPredictor:
 
     def _predict(self, values, spread: bool) -> Prediction:
         """The batch path (module docstring, stages 1-4); the committee's spread is computed
-        when ``spread`` or in auto."""
+        when ``spread``. Pairs without this mode's models raise UnsupportedPairError."""
         inputs = pc.checked_inputs(*values)
+        out = self.answer(inputs, spread)
+        if out.unsupported.any():
+            raise UnsupportedPairError(np.flatnonzero(out.unsupported), [
+                p.key for p in self.pairs if p.supports(self.mode)], self.mode)
+        exact_fill(out, inputs, out.unknown)  # regions without a committee
+        return out.prediction()
+
+    def answer(self, inputs: pc.Inputs, spread: bool) -> Output:
+        """Stages 2-3 of validated ``inputs``: every row this mode's models answer; the others
+        flagged ``unsupported`` (no models for the pair) or ``unknown`` (no committee for the
+        region), with ``unsure`` rows where ``spread`` and the pair's thresholds distrust the
+        answer, for a caller (the strict mode, or the auto chain) to hand on."""
         out = Output(inputs.n)
         if inputs.n == 0:
-            return out.prediction()
-        parts = groups(self.table.match(inputs.size_a, inputs.size_b), inputs.n)
-        missing = [rows for code, rows in parts if self.runtime(code) is None]
-        if missing and self.mode != "auto":
-            rows = np.arange(inputs.n) if missing[0] is None else np.concatenate(missing)
-            raise UnsupportedPairError(np.sort(rows), [p.key for p in self.pairs if
-                                                       p.supports(self.mode)], self.mode)
-        for code, rows in parts:
+            return out
+        for code, rows in groups(self.table.match(inputs.size_a, inputs.size_b), inputs.n):
             pair = self.runtime(code)
             if pair is None:
-                out.unsure[slice(None) if rows is None else rows] = True
+                out.unsupported[slice(None) if rows is None else rows] = True
                 continue
             group = inputs if rows is None else inputs.take(rows)
             part = out if rows is None else Output(len(rows))
@@ -172,8 +178,7 @@ class LearnedPredictor:
                 unswap_output(part)
             if rows is not None:
                 out.put(rows, part)
-        _exact_fallback(out, inputs)  # auto's unsure rows, the committee's unknown regions
-        return out.prediction()
+        return out
 
     def solve(self, pair: PairRuntime, inputs: pc.Inputs, out: Output, spread: bool,
               swapped: bool = False) -> None:
@@ -191,9 +196,9 @@ def unswap_output(out: Output) -> None:
         setattr(out, name, value)
 
 
-def _exact_fallback(out: Output, inputs: pc.Inputs) -> None:
-    """The exact solver answers the unsure rows, in one vectorised call."""
-    rows = np.flatnonzero(out.unsure)
+def exact_fill(out: Output, inputs: pc.Inputs, take: np.ndarray) -> None:
+    """The exact solver answers the rows ``take`` (n,) bool, in one vectorised call."""
+    rows = np.flatnonzero(take)
     if rows.size:
         out.put_exact(rows, box_box(*(a[rows] for a in inputs.full())))
 
@@ -266,7 +271,7 @@ class CommitteePredictor(LearnedPredictor):
                                      & ~labels.exact_point & labels.colliding)
         unknown = region < 0  # a region without a committee: the exact solver answers
         np.maximum(region, 0, out=region)
-        outputs = self._experts(pair, features, region, out, spread or self.mode == "auto")
+        outputs = self._experts(pair, features, region, out, spread)
         scratch = np.empty((min(n, pc.ROW_BLOCK), 3))  # the experts' normals, not used
         for start, frame in zip(range(0, n, pc.ROW_BLOCK), frames):
             stop = min(n, start + pc.ROW_BLOCK)
@@ -275,11 +280,12 @@ class CommitteePredictor(LearnedPredictor):
         out.confidence[:] = 1.0
         out.confidence[out.colliding & ~pair.in_domain(out.depth / pair.edge)] = 0.0
         _separated(out, inputs, np.flatnonzero(~out.colliding))
-        if self.mode == "auto":
-            out.unsure |= pair.unsure(out.confidence, out.normal_spread, out.point_spread,
-                                      out.depth / pair.edge, out.colliding) | untrusted
+        if spread:  # the auto chain's question: which answers do the thresholds trust?
+            out.unsure |= untrusted | (pair.unsure(
+                out.confidence, out.normal_spread, out.point_spread, out.depth / pair.edge,
+                out.colliding) if pair.auto is not None else True)
         out.finish_learned("committee")
-        out.unsure |= unknown
+        out.unknown |= unknown
 
     @staticmethod
     def _experts(pair: PairRuntime, features, region, out: Output, spread: bool) -> np.ndarray:
@@ -337,9 +343,3 @@ def _separated(out: Output, inputs: pc.Inputs, rows: np.ndarray) -> None:
         pa, pb = inputs.position_a, inputs.position_b
         pa, pb = (pa if len(pa) == 1 else pa[rows]), (pb if len(pb) == 1 else pb[rows])
         out.point[rows] = 0.5 * (pa + pb)
-
-
-class AutoPredictor(CommitteePredictor):
-    """The committee, with the exact solver for the unsure and the unsupported rows."""
-
-    mode = "auto"

@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from impactnet.models import contacts as ct
-from impactnet.models.box.exact_one import box_box_one
+from impactnet.models.box.exact_one import answer_one
 from impactnet.models.geometry.rotations import quaternion_matrix
 from impactnet.models.learned.canonical import FALLBACK_NORMAL, FLIP_FEATURES, NORMAL_NORM_MIN
 from impactnet.models.learned.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UnsupportedPairError
@@ -93,17 +93,25 @@ def _spread(members, scale):
     return 2.0 * math.asin(min(chord * 0.5, 1.0)) * _DEG, dist * scale
 
 
-def predict_one(predictor, values, spread: bool = True):
-    """The answer of ``predictor`` (a LearnedPredictor) for one validated pair (the lists
-    of :func:`one_pair`): a one-row `Contacts`, the normal spread (deg) and the point spread
-    (m) of the committee (0 where none answered, or when not ``spread`` and not auto)."""
+def predict_one(predictor, values, spread: bool = True, confident_only: bool = False):
+    """The answer of ``predictor`` (a ``single`` or ``committee`` LearnedPredictor) for one
+    validated pair (the lists of :func:`impactnet.models.box.scalar_inputs.single_pair`): a
+    one-row `Contacts`, the normal spread (deg) and the point spread (m) of the committee (0
+    where none answered or when not ``spread``).
+
+    A pair without this mode's models raises UnsupportedPairError. ``confident_only`` (the
+    ``auto`` chain, :mod:`impactnet.models.learned.chain`): return None where the committee is
+    not confident, with the separating-axis decision of the labeller, ``(None, decision)``,
+    so that the exact solver finishes from it (``(None, None)`` for a pair without ``auto``'s
+    models: nothing was decided).
+    """
     code = predictor.table.match_one(values[0], values[3])
     pair = predictor.runtime(code)
+    if confident_only and (pair is None or pair.auto is None):
+        return None, None  # no models, or no calibrated thresholds: nothing is confident
     if pair is None:
-        if predictor.mode != "auto":
-            raise UnsupportedPairError([0], [p.key for p in predictor.pairs
-                                             if p.supports(predictor.mode)], predictor.mode)
-        return box_box_one(*values), 0.0, 0.0
+        raise UnsupportedPairError([0], [p.key for p in predictor.pairs
+                                         if p.supports(predictor.mode)], predictor.mode)
     swapped = code % 2 == 1
     solved = values[3:] + values[:3] if swapped else values
     if predictor.mode == "single":
@@ -114,10 +122,12 @@ def predict_one(predictor, values, spread: bool = True):
         row = [True, normal, depth, point, 0, -1, -1, -1, 1.0 if inside else 0.0, "single"]
         spread = (0.0, 0.0)
     else:
-        auto = predictor.mode == "auto"
-        row, spread = _committee_one(pair, solved, values, swapped, auto, spread or auto)
-        if row is None:  # no committee for the region, or auto: unsure
-            return box_box_one(*values), 0.0, 0.0
+        row, spread, decision = _committee_one(pair, solved, values, swapped, confident_only,
+                                               spread or confident_only)
+        if row is None:  # no committee for the region, or not confident: the exact solver
+            if confident_only:
+                return None, decision
+            return answer_one(decision, values[1], values[4]), 0.0, 0.0
     if swapped:
         row[1] = [-row[1][0], -row[1][1], -row[1][2]]
         row[4], row[5], row[6] = _MIRROR_TYPE[row[4]], row[6], row[5]
@@ -125,40 +135,43 @@ def predict_one(predictor, values, spread: bool = True):
     return _contacts(*row), spread[0], spread[1]
 
 
-def _committee_one(pair, solved, values, swapped: bool, auto: bool, spread: bool):
-    """(row fields, spread) of the committee for one pair (``solved``: in the bundle's order);
-    row None when the exact solver is to answer (a region without a committee; in ``auto``, an
-    unsure answer); the spread only if ``spread``. The pair is labelled in the request's
-    order (``values``) and the labels mirrored into the bundle's order if ``swapped``; the
-    canonical features are formed only for a row the experts answer."""
-    colliding, axis, depth, normal, code, fa, fb, exact, unclipped = label_one(values)
+def _committee_one(pair, solved, values, swapped: bool, confident_only: bool, spread: bool):
+    """(row fields, spread, decision) of the committee for one pair (``solved``: in the
+    bundle's order); row None when the exact solver is to answer (a region without a
+    committee; with ``confident_only``, an answer the pair's thresholds do not trust); the
+    spread only if ``spread``. The pair is labelled in the request's order (``values``), so
+    that ``decision`` is the exact solver's own, and the labels are mirrored into the
+    bundle's order if ``swapped``; the canonical features are formed only for a row the
+    experts answer."""
+    colliding, axis, depth, normal, code, fa, fb, exact, unclipped, decision = label_one(values)
     if swapped:
         normal, fa, fb = [-normal[0], -normal[1], -normal[2]], fb, fa
         code, axis = _MIRROR_TYPE[code], _MIRROR_AXIS[axis]
     if not colliding:
         pa, pb = values[1], values[4]
         point = [0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])]
-        return [False, normal, 0.0, point, 0, -1, -1, axis, 1.0, "committee"], (0.0, 0.0)
+        return ([False, normal, 0.0, point, 0, -1, -1, axis, 1.0, "committee"], (0.0, 0.0),
+                decision)
     inside = pair.depth_lo <= depth / pair.edge <= pair.depth_hi
     if exact:  # the unclipped point is exact: no committee
-        if auto and not inside:
-            return None, None
-        return [True, normal, depth, unclipped, code, fa, fb, axis, 1.0 if inside else 0.0,
-                "committee"], (0.0, 0.0)
+        if confident_only and not inside:
+            return None, None, decision
+        return ([True, normal, depth, unclipped, code, fa, fb, axis, 1.0 if inside else 0.0,
+                 "committee"], (0.0, 0.0), decision)
     x, to_world, flip_a, flip_b = _canonical(solved, pair.inv_scale)
     region = pair.region_dict.get((code, _FLIP[flip_a][fa], _FLIP[flip_b][fb]))
-    if region is None or (auto and code in AUTO_EXACT_TYPES):
-        return None, None
+    if region is None or (confident_only and code in AUTO_EXACT_TYPES):
+        return None, None, decision
     members = pair.experts[region].forward_one(x).tolist()
     k = len(members)
     y = [sum(column) / k for column in zip(*members)]
     spread = _spread(members, pair.scale) if spread and k > 1 else (0.0, 0.0)
-    if auto and (not inside or spread[0] > pair.spread_normal_max
-                 or spread[1] > pair.spread_point_max):
-        return None, None
+    if confident_only and (not inside or spread[0] > pair.spread_normal_max
+                           or spread[1] > pair.spread_point_max):
+        return None, None, decision
     point = _point_to_world(pair, y, to_world, unclipped)  # the unclipped point + residual
-    return [True, normal, depth, point, code, fa, fb, axis, 1.0 if inside else 0.0,
-            "committee"], spread
+    return ([True, normal, depth, point, code, fa, fb, axis, 1.0 if inside else 0.0,
+             "committee"], spread, decision)
 
 
 def _contacts(colliding, normal, depth, point, code, feature_a, feature_b, axis, confidence,

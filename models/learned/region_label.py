@@ -232,15 +232,17 @@ def unclipped_points(size_a, position_a, quaternion_a, size_b, position_b,
 def label_one(values) -> tuple:
     """Exact labels of one validated pair (the lists of :func:`impactnet.models.box.exact_one.
     single_pair`): ``(colliding, axis, depth, normal, code, feature_a, feature_b,
-    exact_point, unclipped)``, the normal and the unclipped point (see :class:`Labels`) as 3
-    floats in the world frame."""
-    ha, hb, rot, t, rot_a = es.relative_frame(*values)
-    scale = max(ha) + max(hb)
-    colliding, axis, normal, depth, edge = es.contact_axis(ha, hb, rot, t, scale)
+    exact_point, unclipped, decision)``, the normal and the unclipped point (see
+    :class:`Labels`) as 3 floats in the world frame, and the separating-axis
+    :class:`~impactnet.models.box.exact_one.Decision` behind them (the exact fallback finishes
+    from it)."""
+    decision = es.decide_one(*values)
+    ha, hb, rot, t, rot_a, scale = decision.frame
+    _, colliding, axis, normal, depth, edge = decision
     world = es.apply(rot_a, normal)
     if not colliding:
         return (False, axis, 0.0, world, ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE, False,
-                list(values[1]))
+                list(values[1]), decision)
     if axis < 6:
         code, feature_a, feature_b, point, exact = _face_labels_one(ha, hb, rot, t, axis, scale)
     else:
@@ -248,7 +250,7 @@ def label_one(values) -> tuple:
         code, exact = ct.EDGE_EDGE, True
     pa = values[1]
     unclipped = [pa[r] + es.dot(rot_a[r], point) for r in range(3)]
-    return True, axis, depth, world, code, feature_a, feature_b, exact, unclipped
+    return True, axis, depth, world, code, feature_a, feature_b, exact, unclipped, decision
 
 
 def _face_labels_one(ha, hb, rot, t, axis, scale):

@@ -21,7 +21,7 @@ from impactnet.models.geometry.rotations import (
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.service.api.errors import InputError, UnsupportedPair
 from impactnet.service.api.schemas import Body, ContactRequest
-from impactnet.service.predictors import PairInputs, ServedMode
+from impactnet.service.predictors import PairInputs, pair_args
 from impactnet.service.scene import SceneView
 
 #: Distance (metres) from A's centre below which the impact point has no direction: 1e-12 m,
@@ -175,24 +175,24 @@ def check_finite(contacts: Contacts) -> np.ndarray:
     return np.flatnonzero(bad)
 
 
-def predict_checked(predictor: ServedMode, pairs: PairInputs, batch: bool = False,
+def predict_checked(predictor, pairs: PairInputs, batch: bool = False,
                     offset: int = 0):
     """Run a predictor; input faults it finds become 422, a pair that a strict learned mode
     has no model for too (``unsupported_pair``, naming the rows of a ``batch``), non-finite
     answers too (logged: inside the validated range they are a solver bug). ``offset``: the
     batch row of ``pairs``' first row (a chunk of a batch), added to the rows reported."""
     try:
-        contacts = predictor.predict(pairs)
+        contacts = predictor(*pair_args(pairs))
     except (InvalidBoxError, InvalidRotationError) as exc:
         rows = None if exc.rows is None else np.asarray(exc.rows) + offset
         raise InputError(exc.field, str(exc), rows, type_="invalid_box") from exc
     except UnsupportedPairError as exc:
-        raise UnsupportedPair(predictor.name, np.asarray(exc.rows) + offset,
+        raise UnsupportedPair(predictor.mode, np.asarray(exc.rows) + offset,
                               exc.pairs, batch) from exc
     bad = check_finite(contacts)
     if bad.size:
-        log.error("non-finite answer", extra={"predictor": predictor.name,
+        log.error("non-finite answer", extra={"predictor": predictor.mode,
                                               "rows": (bad[:10] + offset).tolist()})
-        raise InputError("pairs", f"predictor {predictor.name!r} found no finite answer for "
+        raise InputError("pairs", f"predictor {predictor.mode!r} found no finite answer for "
                          "these pairs", bad + offset, type_="numeric_range")
     return contacts

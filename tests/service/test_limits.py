@@ -12,7 +12,6 @@ import pytest
 
 from impactnet.models import load_predictor
 from impactnet.service.app import create_app
-from impactnet.service.predictors import ServedMode
 from tests.service.conftest import PAIR, assert_error, test_settings
 
 
@@ -88,18 +87,18 @@ def test_testclient_oversize_body_is_413(make_client):
 class _Gate:
     """A predictor that waits for a signal, to keep a request in flight."""
 
-    name = "exact"
+    mode = "exact"
 
     def __init__(self, failing: bool = False) -> None:
         self.started, self.release = threading.Event(), threading.Event()
         self.failing = failing
 
-    def predict(self, pairs):
+    def __call__(self, *args):
         if self.failing:
             raise RuntimeError("a deliberate bug")
         self.started.set()
         self.release.wait(10)
-        return ServedMode("exact", load_predictor("exact")).predict(pairs)
+        return load_predictor("exact")(*args)
 
 
 def _swap_predictor(app, predictor) -> None:

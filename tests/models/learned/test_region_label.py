@@ -89,7 +89,7 @@ def test_one_pair_labels_equal_the_scalar_exact_solver():
     p = family_poses(per_case=12, seed=3)
     for i in range(len(p["size_a"])):
         values = single_pair(*(p[k][i] for k in KEYS))
-        colliding, axis, depth, normal, code, feature_a, feature_b, _, _ = label_one(values)
+        colliding, axis, depth, normal, code, feature_a, feature_b, _, _, _ = label_one(values)
         exact = box_box_one(*values)
         assert (colliding, axis, code, feature_a, feature_b) == (
             exact.colliding[0], exact.axis[0], exact.contact_type_code[0],
@@ -156,7 +156,7 @@ def test_one_pair_unclipped_point_equals_the_batch():
     labels = label_block(lf.input_columns(inputs, 0, len(inputs[0])))
     for i in range(len(p["size_a"])):
         values = [a[i].tolist() for a in inputs]
-        exact, one = label_one(values)[7:]
+        exact, one = label_one(values)[7:9]
         assert exact == labels.exact_point[i], i
         scale = max(values[0]) + max(values[3])
         np.testing.assert_allclose(one, labels.unclipped[:, i], rtol=0,

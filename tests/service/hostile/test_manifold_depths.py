@@ -12,7 +12,6 @@ import io
 import numpy as np
 
 from impactnet.models import load_predictor
-from impactnet.service.predictors import ServedMode
 from tests.service.conftest import PAIR
 from tests.service.test_batch import as_json, poses
 
@@ -22,10 +21,10 @@ ROUND_OFF_DEPTH = -1e-17
 class _NegativeDepths:
     """The exact solver, with its manifold's depths replaced by tiny negatives."""
 
-    name = "exact"
+    mode = "exact"
 
-    def predict(self, pairs):
-        contacts = ServedMode("exact", load_predictor("exact")).predict(pairs)
+    def __call__(self, *args):
+        contacts = load_predictor("exact")(*args)
         depths = np.where(np.arange(8) < contacts.manifold_count[:, None], ROUND_OFF_DEPTH, 0.0)
         return dataclasses.replace(contacts, manifold_depths=depths)
 
