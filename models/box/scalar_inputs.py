@@ -13,11 +13,16 @@ import numpy as np
 from impactnet.models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from impactnet.models.geometry.rotations import QUATERNION_MIN_NORM
 
+#: Widths of the six inputs, in ``box_box`` order.
+_WIDTHS = (3, 3, 4, 3, 3, 4)
+
 
 def _unit_quaternion(value):
-    """A finite quaternion list normalised, or None if its norm is below the minimum."""
-    norm = math.sqrt(sum(v * v for v in value))
-    return [v / norm for v in value] if norm >= QUATERNION_MIN_NORM else None
+    """A finite quaternion list normalised, or None if its norm is below the minimum (the norm
+    summed in the batch path's order)."""
+    w, x, y, z = value
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    return [w / norm, x / norm, y / norm, z / norm] if norm >= QUATERNION_MIN_NORM else None
 
 
 def _flat_floats(value):
@@ -41,20 +46,29 @@ def single_pair(size_a, position_a, quaternion_a, size_b, position_b, quaternion
     """The six inputs of one pair as validated float lists, or None.
 
     None means "not a single valid pair": the caller then takes the vectorised path, which
-    broadcasts, validates and raises the precise error.
+    broadcasts, validates and raises the precise error. The common shapes (float64 vectors,
+    float lists) are checked without a per-element loop; finiteness by one sum (a sum that
+    overflows declines a valid pair, which the vectorised path then answers).
     """
-    values = []
-    for value, width in ((size_a, 3), (position_a, 3), (quaternion_a, 4), (size_b, 3),
-                         (position_b, 3), (quaternion_b, 4)):
-        row = _flat_floats(value)
-        if row is None or len(row) != width or not all(math.isfinite(v) for v in row):
+    rows = []
+    for value, width in zip((size_a, position_a, quaternion_a, size_b, position_b,
+                             quaternion_b), _WIDTHS):
+        if type(value) is np.ndarray and value.shape == (width,) and value.dtype == np.float64:
+            row = value.tolist()
+        else:
+            row = _flat_floats(value)
+        if row is None or len(row) != width:
             return None
-        values.append(row)
-    for sizes in (values[0], values[3]):
+        rows.append(row)
+    size_a, pa, qa, size_b, pb, qb = rows
+    if not math.isfinite(sum(size_a) + sum(pa) + sum(qa) + sum(size_b) + sum(pb) + sum(qb)):
+        return None
+    for sizes in (size_a, size_b):
         if not (min(sizes) >= SIZE_MIN_M and max(sizes) <= SIZE_MAX_M):
             return None
-    for position in (values[1], values[4]):
-        if max(abs(v) for v in position) > POSITION_MAX_M:
+    for p in (pa, pb):
+        if not (abs(p[0]) <= POSITION_MAX_M and abs(p[1]) <= POSITION_MAX_M
+                and abs(p[2]) <= POSITION_MAX_M):
             return None
-    values[2], values[5] = _unit_quaternion(values[2]), _unit_quaternion(values[5])
-    return None if values[2] is None or values[5] is None else values
+    rows[2], rows[5] = _unit_quaternion(qa), _unit_quaternion(qb)
+    return None if rows[2] is None or rows[5] is None else rows
