@@ -60,7 +60,7 @@ def tilt_row(tilt: float, rows: int, seed: int, family: str, predictor=None) -> 
     args = vm.pose_args(cs.stacking_poses(rows, size_a, size_b, tilt, seed))
     ours = (predictor or box_box)(*args)
     reference = vm.mujoco_reference(args)
-    errors = vm.row_errors(ours.point, ours.normal, ours.colliding, reference)
+    errors = vm.mujoco_row_errors(ours.point, ours.normal, ours.colliding, reference)
     centroid = 100.0 * np.linalg.norm(ours.point - reference.mujoco.point,
                                       axis=1) / reference.scale
     cop = 100.0 * np.linalg.norm(ours.point - reference.point, axis=1) / reference.scale

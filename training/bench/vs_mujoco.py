@@ -143,7 +143,7 @@ def mujoco_reference(args, grid: int = COP_GRID, refine: int = COP_REFINE) -> Re
     return Reference(answer, face, face_angle, point, second, scale, grid_answer)
 
 
-def row_errors(point, normal, colliding, reference: Reference) -> dict:
+def mujoco_row_errors(point, normal, colliding, reference: Reference) -> dict:
     """Per-row errors of an answer against ``reference`` (all (n,) arrays).
 
     Returns ``counted`` (MuJoCo says contact), ``missed`` (counted, the answer says none),
@@ -210,7 +210,7 @@ class MujocoColumn:
         if key not in self._cache:
             self._cache[key] = mujoco_reference(self.poses.args(chosen))
         reference = self._cache[key]
-        errors = row_errors(answer.point[take], answer.normal[take], answer.colliding[take],
+        errors = mujoco_row_errors(answer.point[take], answer.normal[take], answer.colliding[take],
                             reference)
         return column_summary(errors, reference)
 

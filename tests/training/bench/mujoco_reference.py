@@ -108,7 +108,7 @@ def disagreement_classes(args, ours, reference, errors) -> np.ndarray:
         The exact solver's answers.
     reference : impactnet.training.bench.vs_mujoco.Reference
     errors : dict
-        ``impactnet.training.bench.vs_mujoco.row_errors`` of ours against ``reference``.
+        ``impactnet.training.bench.vs_mujoco.mujoco_row_errors`` of ours against ``reference``.
 
     Classes, first match wins: AGREE (within the targets, or neither finds a contact);
     TOUCHING (the flags differ, the contact is within TOUCHING_REL deep); MUJOCO_FACE_PREFERENCE

@@ -59,7 +59,7 @@ FCL_AGREEMENT_REL = 1e-9
 def _case(args, grid=(vm.COP_GRID, vm.COP_REFINE)):
     ours = box_box(*args)
     reference = vm.mujoco_reference(args, *grid)
-    errors = vm.row_errors(ours.point, ours.normal, ours.colliding, reference)
+    errors = vm.mujoco_row_errors(ours.point, ours.normal, ours.colliding, reference)
     return {"args": args, "ours": ours, "ref": reference, "errors": errors,
             "classes": disagreement_classes(args, ours, reference, errors)}
 
