@@ -33,3 +33,12 @@ def test_baseline_of_this_checkout_against_itself_times_both_sides_on_the_same_p
     assert result["baseline_us"] > 0 and result["current_us"] > 0
     assert len(result["per_round_us"]["baseline"]) == 1
     assert np.isclose(result["ratio"], result["current_us"] / result["baseline_us"])
+
+
+def test_mode_baseline_of_this_checkout_against_itself_reports_both_sides():
+    from impactnet.training.bench.baseline_modes import compare
+
+    result = compare(REPO, REPO, "exact", "quay_crane", batch=200, rounds=1, log=lambda _: None)
+    for side in ("baseline", "current"):
+        figures = result[side]["exact"]
+        assert figures["n1_us"] > 0 and figures["batch_us_per_pair"] > 0
