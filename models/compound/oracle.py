@@ -12,9 +12,11 @@ Stages, for N poses of one pair of bodies (A with ``P_a`` parts, B with ``P_b``)
 3. Narrowphase: one call of the box solver (:func:`impactnet.models.box.exact.box_box`) on all
    survivors; its conventions hold for every part contact (normal from A's part towards B's,
    the centre of pressure as the point, DESIGN.md).
-4. Filter: a part contact whose point lies inside another part of the same body (deeper than
-   :data:`INSIDE_MARGIN_REL` of that part's size) is internal to the body's overlapping parts
-   and is dropped.
+4. Filter: a part contact whose touched surface one body covers with its other parts is
+   dropped (a container's roof under its own top castings): all of its manifold points, moved
+   from the mid-surface back onto that body's part, inside other parts of that body (deeper
+   than :data:`INSIDE_MARGIN_REL` of their size). A contact that reaches out of the covering
+   parts stays.
 
 The answer is ragged: :class:`PartContacts` lists the part contacts of all poses, pose-major,
 with ``offsets`` (n + 1,) delimiting each pose's rows. The body-level summary of DESIGN.md (a
@@ -105,10 +107,8 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
     found = box_box(size_a[i], world_a[pose, i], q_a[pose], size_b[j], world_b[pose, j],
                     q_b[pose])
     rows = np.flatnonzero(found.colliding)
-    point, at = found.point[rows], pose[rows]
-    internal = (_inside_other_part(point, at, i[rows], world_a, rot_a, size_a)
-                | _inside_other_part(point, at, j[rows], world_b, rot_b, size_b))
-    rows = rows[~internal]
+    rows = rows[~_hidden(found, rows, pose, i, j, (world_a, rot_a, size_a),
+                         (world_b, rot_b, size_b))]
     pose = pose[rows]
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(np.bincount(pose, minlength=n), out=offsets[1:])
@@ -141,9 +141,27 @@ def _broadphase(local_a, size_a, local_b, size_b, offset, rot_a, rot_b):
     return tuple(np.concatenate(parts) for parts in zip(*found))
 
 
+def _hidden(found: Contacts, rows, pose, i, j, body_a, body_b) -> np.ndarray:
+    """(len(rows),) bool: the contact lies on a surface its body covers with other parts: all
+    of A's surface points of the manifold (each mid-surface point moved half its depth along
+    the normal, back onto A's part) inside other parts of A, or all of B's (half its depth
+    the other way) inside other parts of B. Tested slot by slot on all contacts at once."""
+    count = found.manifold_count[rows]
+    normal = found.normal[rows]
+    hidden_a, hidden_b = count > 0, count > 0
+    for slot in range(int(count.max(initial=0))):
+        used = np.flatnonzero(count > slot)
+        half = 0.5 * found.manifold_depths[rows[used], slot][:, None] * normal[used]
+        point, at = found.manifold_points[rows[used], slot], pose[rows[used]]
+        hidden_a[used] &= _inside_other_part(point + half, at, i[rows[used]], *body_a)
+        hidden_b[used] &= _inside_other_part(point - half, at, j[rows[used]], *body_b)
+    return hidden_a | hidden_b
+
+
 def _inside_other_part(point, pose, own, world, rot, size) -> np.ndarray:
-    """(k,) bool: ``point`` (k, 3) lies inside a part of the body other than ``own`` (k,), by
-    more than :data:`INSIDE_MARGIN_REL` of that part's smallest edge on every axis."""
+    """(k,) bool: ``point`` (k, 3) lies inside a part of the body (``world``, ``rot``,
+    ``size``) other than ``own`` (k,), by more than :data:`INSIDE_MARGIN_REL` of that part's
+    smallest edge on every axis."""
     inside = np.zeros(len(point), bool)
     for part in range(len(size)):  # a loop over the body's parts (a handful), not over poses
         rows = np.flatnonzero(own != part)

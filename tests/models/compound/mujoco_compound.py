@@ -1,0 +1,96 @@
+"""Test helper: MuJoCo 4's collider on two compound bodies, one box geom per part.
+
+Not a test module. Each body is a free MuJoCo body holding one box geom per part (half-extents,
+at the part's centre; margins 0); MuJoCo never collides geoms of the same body, as the oracle
+never pairs parts of one body. Per pose the two free joints' ``qpos`` are set, then
+``mj_kinematics`` and ``mj_collision`` run; the contacts are grouped by geom pair: per part
+pair the deepest depth (``-dist``) and the normal (``frame[0:3]``, from the first geom to the
+second, flipped where MuJoCo put B's geom first). MuJoCo knows nothing of parts that overlap
+within a body, so a pair whose touched surface one body covers with other parts (each contact
+position moved half its depth back onto that body's part, all inside its other parts) is left
+out: the oracle's documented filter, applied to MuJoCo's own contacts. Conventions as in
+``impactnet.training.bench.mujoco_reference`` (which the model tests may not import).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+_BODY = '<body name="{name}"><freejoint/>{geoms}</body>'
+_GEOM = ('<geom name="{body}{k}" type="box" size="{half}" pos="{pos}" margin="0" gap="0" '
+         'contype="1" conaffinity="1"/>')
+
+
+def _floats(values) -> str:
+    return " ".join(repr(float(v)) for v in values)
+
+
+def _model(parts_a, parts_b):
+    import mujoco
+
+    bodies = []
+    for name, parts in (("a", parts_a), ("b", parts_b)):
+        geoms = "".join(_GEOM.format(body=name, k=k, half=_floats(0.5 * np.asarray(p.size)),
+                                     pos=_floats(p.centre)) for k, p in enumerate(parts))
+        bodies.append(_BODY.format(name=name, geoms=geoms))
+    xml = ('<mujoco><option gravity="0 0 0"/><worldbody>' + "".join(bodies)
+           + "</worldbody></mujoco>")
+    model = mujoco.MjModel.from_xml_string(xml)
+    return model, mujoco.MjData(model)
+
+
+def mujoco_part_contacts(parts_a, parts_b, position_b, quaternion_b) -> list[dict]:
+    """Per pose (A at the origin, unrotated; B at ``position_b`` (n, 3), ``quaternion_b``
+    (n, 4)), a dict ``(part_a, part_b) -> (depth, normal (3,))`` of the touching part pairs."""
+    import mujoco
+
+    model, data = _model(parts_a, parts_b)
+    count_a = len(parts_a)
+    out = []
+    for position, quaternion in zip(np.asarray(position_b, float),
+                                    np.asarray(quaternion_b, float)):
+        data.qpos[:] = np.r_[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, position, quaternion]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_collision(model, data)
+        pairs: dict = {}
+        points: dict = {}
+        for c in range(int(data.ncon)):
+            contact = data.contact[c]
+            g1, g2 = int(contact.geom[0]), int(contact.geom[1])
+            normal = np.array(contact.frame[0:3])
+            if g1 >= count_a:  # B's geom first: flip into A -> B
+                g1, g2, normal = g2, g1, -normal
+            key, depth = (g1, g2 - count_a), -float(contact.dist)
+            points.setdefault(key, []).append((np.array(contact.pos), depth, normal))
+            if key not in pairs or depth > pairs[key][0]:
+                pairs[key] = (depth, normal)
+        rot_b = _matrix(quaternion)
+        out.append({key: value for key, value in pairs.items()
+                    if not _hidden(points[key], key, parts_a, parts_b, position, rot_b)})
+    return out
+
+
+def _hidden(contacts, key, parts_a, parts_b, position_b, rot_b) -> bool:
+    """All of A's surface points (each contact position moved half its depth along the
+    normal) covered by other parts of A, or all of B's (the other way) by other parts of B."""
+    on_a = all(_covered_in(p + 0.5 * d * n, key[0], parts_a, np.eye(3), np.zeros(3))
+               for p, d, n in contacts)
+    on_b = all(_covered_in(p - 0.5 * d * n, key[1], parts_b, rot_b, position_b)
+               for p, d, n in contacts)
+    return on_a or on_b
+
+
+def _covered_in(point, own, parts, rot, position, margin_rel=1e-9) -> bool:
+    """Whether ``point`` (world) lies strictly inside a part of the body other than ``own``."""
+    local = rot.T @ (point - position)
+    for k, part in enumerate(parts):
+        half = 0.5 * np.asarray(part.size) - margin_rel * min(part.size)
+        if k != own and (np.abs(local - np.asarray(part.centre)) < half).all():
+            return True
+    return False
+
+
+def _matrix(q) -> np.ndarray:
+    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
