@@ -55,8 +55,8 @@ class Contacts:
     depth : ndarray of float64, shape (n,)
         Penetration depth along ``normal`` in metres; 0 for separated rows.
     point : ndarray of float64, shape (n, 3)
-        Impact point in the world frame (mid-surface, depth-weighted manifold mean), metres;
-        the midpoint of the two centres for separated rows.
+        Impact point in the world frame, metres: the centre of pressure on the mid-surface
+        (DESIGN.md); the midpoint of the two centres for separated rows.
     contact_type_code : ndarray of int8, shape (n,)
         Index into :data:`CONTACT_TYPES`.
     feature_a, feature_b : ndarray of int8, shape (n,)
@@ -74,6 +74,11 @@ class Contacts:
         1 for the exact solver; a learned predictor's calibrated confidence in [0, 1].
     predictor : ndarray of str, shape (n,)
         Name of the predictor that answered each row.
+    pressure : ndarray of float64, shape (n,)
+        The integral of the pressure over a face contact's region, ``int (d + tau) dA`` in m^3
+        (``tau`` the depth floor of :mod:`impactnet.models.box.pressure`): a part contact's
+        weight in a compound body's summary. 0 for edge-edge contacts, separated rows and
+        learned answers.
     """
 
     colliding: np.ndarray
@@ -89,6 +94,7 @@ class Contacts:
     manifold_count: np.ndarray
     confidence: np.ndarray = field(default=None)  # filled with ones when not given
     predictor: np.ndarray = field(default=None)  # filled with "exact" when not given
+    pressure: np.ndarray = field(default=None)  # int (d + tau) dA (m^3); zeros when not given
 
     def __post_init__(self) -> None:
         n = self.depth.shape[0]
@@ -96,6 +102,8 @@ class Contacts:
             self.confidence = np.ones(n)
         if self.predictor is None:
             self.predictor = np.full(n, "exact")
+        if self.pressure is None:
+            self.pressure = np.zeros(n)
 
     def __len__(self) -> int:
         return int(self.depth.shape[0])
@@ -114,7 +122,8 @@ class Contacts:
         return Contacts(**{name: value[index] for name, value in self.arrays().items()})
 
     @classmethod
-    def one_row(cls, floats: list, ints: list, colliding: bool, predictor: str) -> Contacts:
+    def one_row(cls, floats: list, ints: list, colliding: bool, predictor: str,
+                pressure: float = 0.0) -> Contacts:
         """A one-row `Contacts` from two flat lists, with two allocations instead of a dozen
         (NumPy's per-call cost dominates a single pair).
 
@@ -128,6 +137,8 @@ class Contacts:
         colliding : bool
         predictor : str
             Name of the predictor that answered.
+        pressure : float
+            The pressure integral of a face contact (m^3), 0 otherwise.
         """
         values = np.array(floats)
         small = np.array(ints, np.int8)
@@ -139,7 +150,7 @@ class Contacts:
             manifold_points=values[7:m].reshape(1, MAX_MANIFOLD_POINTS, 3),
             manifold_depths=values[m:m + MAX_MANIFOLD_POINTS].reshape(1, -1),
             manifold_count=small[4:5], confidence=values[-1:],
-            predictor=np.array([predictor]))
+            predictor=np.array([predictor]), pressure=np.array([pressure]))
 
     def arrays(self) -> dict[str, np.ndarray]:
         """All fields as a name -> array mapping (the arrays themselves, not copies)."""

@@ -199,7 +199,7 @@ def box_box_batch(size_a, position_a, quaternion_a, size_b, position_b, quaterni
         "axis": np.empty(n, np.int8),
         "manifold_points": np.zeros((n, ct.MAX_MANIFOLD_POINTS, 3)),
         "manifold_depths": np.zeros((n, ct.MAX_MANIFOLD_POINTS)),
-        "manifold_count": np.empty(n, np.int8),
+        "manifold_count": np.empty(n, np.int8), "pressure": np.empty(n),
     }
     for start in range(0, n, CHUNK_ROWS):
         block = lf.input_columns(inputs, start, min(n, start + CHUNK_ROWS))
@@ -260,6 +260,7 @@ def solve_local(pose: lf.LocalPose) -> dict:
         "feature_a": np.full(m, bf.NO_FEATURE, np.int8),
         "feature_b": np.full(m, bf.NO_FEATURE, np.int8),
         "manifold_count": np.zeros(m, np.int8),
+        "pressure": np.zeros(m),  # face contacts' int (d + tau) dA; 0 for edge-edge, separated
     }
     _fill_face_rows(out, np.flatnonzero(colliding & (axis < 6)), pose)
     _fill_edge_rows(out, *edge)
@@ -275,7 +276,7 @@ def _fill_face_rows(out, rows, pose):
     frame = mf.ReferenceFrame(pose, rows, ref_is_b, axis % 3)
     (points, depths, entry_rows, slots, count, inc_feature, rank, ref_face,
      deepest) = mf.face_manifold(frame, scale)
-    centre, region_depth = pr.centre_of_pressure(frame, scale, deepest)
+    centre, region_depth, out["pressure"][rows] = pr.centre_of_pressure(frame, scale, deepest)
     point = mf.from_reference(axis % 3, *centre)
     sat_depth = out["depth"][rows]
     shallower = region_depth < sat_depth - pr.REGION_DEPTH_TOL_REL * scale
@@ -312,7 +313,7 @@ def to_world(local: dict, rot_a, block, out: dict) -> None:
     position_a = block[lf.INPUT_SLICES[1]]
     position_b = block[lf.INPUT_SLICES[4]]
     for name in ("colliding", "depth", "axis", "contact_type_code", "feature_a", "feature_b",
-                 "manifold_count"):
+                 "manifold_count", "pressure"):
         out[name][:] = local[name]
     out["normal"][:] = lf.matvec(rot_a, local["normal"]).T
     point = position_a + lf.matvec(rot_a, local["point"])

@@ -145,8 +145,10 @@ def _face_contact(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale):
     deepest = max(height - ref_sign * corner[ref_axis], 0.0)
     fallback = (ref_sign * height - ref_sign * 0.5 * deepest,
                 min(max(corner[u], -h_ref[u]), h_ref[u]), min(max(corner[w], -h_ref[w]), h_ref[w]))
-    centre, depth = centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback)
-    return points, centre, depth, feature, rank, bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0)
+    centre, depth, pressure = centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale,
+                                                 fallback)
+    return (points, centre, depth, feature, rank, bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0),
+            pressure)
 
 
 def _transpose(m):
@@ -216,17 +218,17 @@ def answer_one(decision: Decision, position_a, position_b):
     _, colliding, axis, normal, depth, edge = decision
     code, feature_a, feature_b = ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE
     manifold = []
-    point = None
+    point, pressure = None, 0.0
     if colliding and axis < 6:
-        manifold, point, region_depth, code, feature_a, feature_b = _face_rows(ha, hb, rot, t,
-                                                                              axis, scale)
+        manifold, point, region_depth, code, feature_a, feature_b, pressure = _face_rows(
+            ha, hb, rot, t, axis, scale)
         if region_depth is not None and region_depth < depth - REGION_DEPTH_TOL_REL * scale:
             depth = region_depth
     elif colliding:
         point, feature_a, feature_b = edge
         manifold, code = [(point, depth)], ct.EDGE_EDGE
     return _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, manifold,
-                   rot_a, position_a, position_b)
+                   rot_a, position_a, position_b, pressure)
 
 
 def reference_view(ha, hb, rot, t, axis):
@@ -242,17 +244,17 @@ def _face_rows(ha, hb, rot, t, axis, scale):
     """Face-axis contact of one pair: manifold, point in A's frame, the region's depth (None if
     empty), type and features."""
     ref_is_b = axis >= 3
-    points, point, depth, inc, rank, ref_face = _face_contact(
+    points, point, depth, inc, rank, ref_face, pressure = _face_contact(
         *reference_view(ha, hb, rot, t, axis), axis % 3, scale)
     if ref_is_b:
         points = [([t[r] + dot(rot[r], p) for r in range(3)], d) for p, d in points]
         point = [t[r] + dot(rot[r], point) for r in range(3)]
-        return points, point, depth, FACE_INC_CODES[rank], inc, ref_face
-    return points, point, depth, FACE_REF_CODES[rank], ref_face, inc
+        return points, point, depth, FACE_INC_CODES[rank], inc, ref_face, pressure
+    return points, point, depth, FACE_REF_CODES[rank], ref_face, inc, pressure
 
 
 def _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, manifold,
-            rot_a, pa, pb):
+            rot_a, pa, pb, pressure=0.0):
     """Map one pair's A-frame answer to the world frame as a one-row `Contacts`.
 
     All floats go into one array and all small integers into another, whose views become the
@@ -270,4 +272,4 @@ def _result(colliding, normal, depth, point, code, feature_a, feature_b, axis, m
     floats.extend(_PADDING[: ct.MAX_MANIFOLD_POINTS - len(manifold)])
     floats.append(1.0)
     return ct.Contacts.one_row(floats, [code, feature_a, feature_b, axis, len(manifold)],
-                               colliding, "exact")
+                               colliding, "exact", pressure)

@@ -353,6 +353,10 @@ def centre_of_pressure(frame, scale, fallback):
         The deepest point of the region below the reference plane (metres, >= 0): the
         contact's penetration depth along the reference normal; -inf where the region is
         empty.
+    pressure : ndarray, shape (m,)
+        The integral of the pressure over the region, ``int (d + tau) dA`` (m^3; ``tau`` the
+        depth floor): the weight of the contact in a body-level summary; 0 where the region
+        is empty.
     """
     tau = PRESSURE_FLOOR_REL * scale
     m = len(scale)
@@ -374,4 +378,5 @@ def centre_of_pressure(frame, scale, fallback):
     point = np.array([ref_sign * height - ref_sign * offset, total[1] / safe,
                       total[2] / safe])
     region_depth = np.maximum(np.maximum.reduce(deepest.reshape(3, m)) - tau, 0.0)
-    return np.where(found, point, fallback), np.where(found, region_depth, -np.inf)
+    return (np.where(found, point, fallback), np.where(found, region_depth, -np.inf),
+            np.where(found, weight, 0.0))

@@ -166,8 +166,9 @@ def _clipped_face(apex, slots, half_u, half_w):
 
 
 def centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback):
-    """The impact point of one face contact in the reference frame, as ``[x, y, z]``, and the
-    deepest point of its region below the reference plane (metres; None if the region is empty).
+    """The impact point of one face contact in the reference frame, as ``[x, y, z]``, the
+    deepest point of its region below the reference plane (metres; None if the region is empty)
+    and the pressure integral ``int (d + tau) dA`` (m^3, 0 if empty), as the batch.
 
     ``fallback`` ``(along, u, w)``: the point where the region is empty (see the batch).
     """
@@ -178,7 +179,7 @@ def centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback):
     p0 = apex[2]
     if not p0 > 0.0:  # the batch's sums are all <= 0 there
         point[axis], point[u], point[w] = fallback
-        return point, None
+        return point, None, 0.0
     half_u, half_w = h_ref[u], h_ref[w]
     faces, extent_u, extent_w = depth_slots(p0, edges)
     a_u, a_w = apex[0], apex[1]  # some slot may reach past a side plane:
@@ -199,8 +200,8 @@ def centre_of_pressure(h_ref, h_inc, rot_ri, t_ri, ref_axis, scale, fallback):
         deepest = max(deepest, largest)
     if not weight > 0.0:
         point[axis], point[u], point[w] = fallback
-        return point, None
+        return point, None, 0.0
     offset = max(0.5 * (square / weight) - 0.5 * tau, 0.0)
     point[axis] = ref_sign * h_ref[axis] - ref_sign * offset
     point[u], point[w] = along_u / weight, along_w / weight
-    return point, max(deepest - tau, 0.0)
+    return point, max(deepest - tau, 0.0), weight

@@ -53,7 +53,8 @@ from impactnet.models.learned.pair_runtime import AUTO_EXACT_TYPES, PairRuntime,
 from impactnet.models.learned.region_label import input_block, label_block, mirrored
 
 _FIELDS = ("colliding", "normal", "depth", "point", "contact_type_code", "feature_a",
-           "feature_b", "axis", "manifold_count", "confidence", "predictor", "normal_spread",
+           "feature_b", "axis", "manifold_count", "pressure", "confidence", "predictor",
+           "normal_spread",
            "point_spread", "unsure", "unknown")
 
 
@@ -68,6 +69,7 @@ class Output:
         self.unsupported, self.unknown = np.zeros(n, bool), np.zeros(n, bool)
         self.normal, self.point = np.empty((n, 3)), np.empty((n, 3))
         self.depth, self.confidence = np.empty(n), np.empty(n)
+        self.pressure = np.zeros(n)  # the exact rows' pressure integral (m^3); 0 if learned
         self.contact_type_code, self.axis = np.zeros(n, np.int8), np.full(n, -1, np.int8)
         self.feature_a, self.feature_b = np.full(n, -1, np.int8), np.full(n, -1, np.int8)
         self.manifold_count = np.ones(n, np.int8)
@@ -103,7 +105,8 @@ class Output:
         contacts = ct.Contacts(
             self.colliding, self.normal, self.depth, self.point, self.contact_type_code,
             self.feature_a, self.feature_b, self.axis, self.slots.transpose(1, 0, 2),
-            self.slot_depths.T, self.manifold_count, self.confidence, self.predictor)
+            self.slot_depths.T, self.manifold_count, self.confidence, self.predictor,
+            self.pressure)
         return Prediction(contacts, self.normal_spread, self.point_spread)
 
 
