@@ -37,6 +37,9 @@ from impactnet.models.geometry.rotations import quaternion_to_matrix, validate_q
 #: (x the other part's smallest edge) inside all of its faces: far above round-off, far below
 #: any part's thickness.
 INSIDE_MARGIN_REL = 1e-9
+#: Up to this many surviving part pairs are solved one by one on the plain-float path (the
+#: batch path's fixed cost, ~1 ms, is worth it only for more).
+FEW_PAIRS = 12
 #: Poses per broadphase chunk: its (chunk, P_a, P_b, 3) arrays stay a few tens of MB.
 BROADPHASE_CHUNK = 8192
 #: Added to |R| in the broadphase (dimensionless): a pair touching within round-off is never
@@ -104,8 +107,8 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
     world_a = pos_a[:, None, :] + np.einsum("nij,pj->npi", rot_a, local_a)  # (n, Pa, 3)
     world_b = pos_b[:, None, :] + np.einsum("nij,pj->npi", rot_b, local_b)
     pose, i, j = _broadphase(local_a, size_a, local_b, size_b, pos_b - pos_a, rot_a, rot_b)
-    found = box_box(size_a[i], world_a[pose, i], q_a[pose], size_b[j], world_b[pose, j],
-                    q_b[pose])
+    found = _narrowphase(size_a[i], world_a[pose, i], q_a[pose], size_b[j], world_b[pose, j],
+                         q_b[pose])
     rows = np.flatnonzero(found.colliding)
     rows = rows[~_hidden(found, rows, pose, i, j, (world_a, rot_a, size_a),
                          (world_b, rot_b, size_b))]
@@ -114,6 +117,17 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
     np.cumsum(np.bincount(pose, minlength=n), out=offsets[1:])
     return PartContacts(pose.astype(np.int64), i[rows].astype(np.int16),
                         j[rows].astype(np.int16), found.take(rows), offsets)
+
+
+def _narrowphase(*columns) -> Contacts:
+    """The box solver on the surviving part pairs: one vectorised call, or, for the few pairs
+    of a single pose, one call per pair on the solver's plain-float path (bit-identical to the
+    batch, and free of the batch's fixed NumPy cost)."""
+    k = len(columns[0])
+    if k == 0 or k > FEW_PAIRS:
+        return box_box(*columns)
+    rows = [box_box(*(c[r] for c in columns)).arrays() for r in range(k)]
+    return Contacts(**{name: np.concatenate([row[name] for row in rows]) for name in rows[0]})
 
 
 def _broadphase(local_a, size_a, local_b, size_b, offset, rot_a, rot_b):
@@ -145,30 +159,26 @@ def _hidden(found: Contacts, rows, pose, i, j, body_a, body_b) -> np.ndarray:
     """(len(rows),) bool: the contact lies on a surface its body covers with other parts: all
     of A's surface points of the manifold (each mid-surface point moved half its depth along
     the normal, back onto A's part) inside other parts of A, or all of B's (half its depth
-    the other way) inside other parts of B. Tested slot by slot on all contacts at once."""
+    the other way) inside other parts of B. All manifold slots of all contacts at once."""
     count = found.manifold_count[rows]
-    normal = found.normal[rows]
-    hidden_a, hidden_b = count > 0, count > 0
-    for slot in range(int(count.max(initial=0))):
-        used = np.flatnonzero(count > slot)
-        half = 0.5 * found.manifold_depths[rows[used], slot][:, None] * normal[used]
-        point, at = found.manifold_points[rows[used], slot], pose[rows[used]]
-        hidden_a[used] &= _inside_other_part(point + half, at, i[rows[used]], *body_a)
-        hidden_b[used] &= _inside_other_part(point - half, at, j[rows[used]], *body_b)
-    return hidden_a | hidden_b
+    used = np.arange(found.manifold_points.shape[1])[None, :] < count[:, None]  # (k, 8)
+    k, slot = np.nonzero(used)  # every valid manifold point, contact-major
+    half = 0.5 * found.manifold_depths[rows[k], slot][:, None] * found.normal[rows[k]]
+    points, at = found.manifold_points[rows[k], slot], pose[rows[k]]
+    out_a = ~_inside_other_part(points + half, at, i[rows[k]], *body_a)
+    out_b = ~_inside_other_part(points - half, at, j[rows[k]], *body_b)
+    covered_a = np.bincount(k, out_a, minlength=len(rows)) == 0  # no point outside
+    covered_b = np.bincount(k, out_b, minlength=len(rows)) == 0
+    return (count > 0) & (covered_a | covered_b)
 
 
 def _inside_other_part(point, pose, own, world, rot, size) -> np.ndarray:
-    """(k,) bool: ``point`` (k, 3) lies inside a part of the body (``world``, ``rot``,
-    ``size``) other than ``own`` (k,), by more than :data:`INSIDE_MARGIN_REL` of that part's
-    smallest edge on every axis."""
-    inside = np.zeros(len(point), bool)
-    for part in range(len(size)):  # a loop over the body's parts (a handful), not over poses
-        rows = np.flatnonzero(own != part)
-        if rows.size == 0:
-            continue
-        gap = point[rows] - world[pose[rows], part]
-        local = (gap[:, None, :] @ rot[pose[rows]])[:, 0, :]  # R^T gap, the part's frame
-        margin = 0.5 * size[part] - INSIDE_MARGIN_REL * size[part].min()
-        inside[rows] |= (np.abs(local) < margin).all(axis=1)
-    return inside
+    """(k,) bool: ``point`` (k, 3) lies inside a part of the body (``world`` (n, P, 3),
+    ``rot`` (n, 3, 3), ``size`` (P, 3)) other than ``own`` (k,), by more than
+    :data:`INSIDE_MARGIN_REL` of that part's smallest edge on every axis; all parts at once."""
+    gap = point[:, None, :] - world[pose]  # (k, P, 3)
+    local = gap @ rot[pose]  # R^T gap, each part's frame (parts share the body's rotation)
+    margin = 0.5 * size - INSIDE_MARGIN_REL * size.min(axis=1, keepdims=True)
+    inside = (np.abs(local) < margin[None]).all(axis=2)
+    inside[np.arange(len(own)), own] = False
+    return inside.any(axis=1)
