@@ -34,16 +34,25 @@ WARMUP_CALLS = 200
 #: Wall-clock limit of one child, seconds (a few thousand calls take a few seconds).
 CHILD_TIMEOUT_S = 300.0
 
-_CHILD = r"""
-import gc, json, os, statistics, sys, time, types
-import numpy as np
+#: Child-process preamble: the checkout in the working directory as ``impactnet`` (its
+#: namespace layout; the package's path pointed at the checkout, not at what is installed),
+#: and ``LAYOUT`` saying which layout it has ("flat" before the namespace).
+LAYOUT_SHIM = r"""
+import os, sys, types
 root = os.getcwd()
-if os.path.isdir(os.path.join(root, "models", "box")):  # namespace layout (impactnet.models)
+LAYOUT = "namespace" if os.path.isdir(os.path.join(root, "models", "box")) else "flat"
+if LAYOUT == "namespace":
     package = types.ModuleType("impactnet")
-    package.__path__ = [os.path.join(root, "impactnet"), root]  # the checkout, not the install
+    package.__path__ = [os.path.join(root, "impactnet"), root]
     sys.modules["impactnet"] = package
+"""
+
+_CHILD = LAYOUT_SHIM + r"""
+import gc, json, statistics, time
+import numpy as np
+if LAYOUT == "namespace":
     from impactnet.models.box.exact import box_box
-else:  # the flat layout before the namespace
+else:
     from models.exact import box_box
 data = np.load(sys.argv[1])
 keys = ("size_a", "position_a", "quaternion_a", "size_b", "position_b", "quaternion_b")

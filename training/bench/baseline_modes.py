@@ -23,21 +23,17 @@ from pathlib import Path
 
 import numpy as np
 
-from impactnet.training.bench.baseline import CHILD_TIMEOUT_S
+from impactnet.training.bench.baseline import CHILD_TIMEOUT_S, LAYOUT_SHIM
 
 #: Single-pair calls per child and mode (the first WARMUP are not timed).
 SINGLE_CALLS, WARMUP = 2000, 200
 
-_CHILD = r"""
-import gc, json, os, statistics, sys, time, types
+_CHILD = LAYOUT_SHIM + r"""
+import gc, json, statistics, time
 import numpy as np
-root = os.getcwd()
-if os.path.isdir(os.path.join(root, "models", "box")):  # namespace layout (impactnet.models)
-    package = types.ModuleType("impactnet")
-    package.__path__ = [os.path.join(root, "impactnet"), root]
-    sys.modules["impactnet"] = package
+if LAYOUT == "namespace":
     from impactnet.models import load_predictor
-else:  # the flat layout before the namespace
+else:
     from models import load_predictor
 data = np.load(sys.argv[1])
 single_calls, warmup, batch = (int(v) for v in sys.argv[3:6])
