@@ -65,7 +65,7 @@ def summarise(found: PartContacts) -> BodySummary:
                        for k in range(3)], axis=1)
     length = np.linalg.norm(pushed, axis=1)
     normal = np.where(hit[:, None], pushed / np.where(length > 0.0, length, 1.0)[:, None], 0.0)
-    depth = np.where(hit, c.depth[np.maximum(deepest, 0)], 0.0) if len(c.depth) else \
-        np.zeros(n)
+    depth = np.zeros(n)
+    depth[hit] = c.depth[deepest[hit]]
     size = np.bincount(found.pose, cluster.astype(np.int64), minlength=n)
     return BodySummary(hit, normal, depth, point, size)

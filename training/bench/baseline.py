@@ -71,15 +71,16 @@ print(json.dumps({"median_s": statistics.median(times), "calls": len(times)}))
 """
 
 
-def _child_median(checkout: Path, poses_path: str, warmup: int) -> float:
+def run_child(checkout: Path, code: str, *args) -> dict:
+    """Run the timing ``code`` (a ``python -c`` script starting with :data:`LAYOUT_SHIM`) in
+    ``checkout``, one thread, and return the JSON its last line prints."""
     env = dict(os.environ, PYTHONPATH=str(checkout), OMP_NUM_THREADS="1",
                OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    done = subprocess.run([sys.executable, "-c", _CHILD, poses_path, str(warmup)], cwd=checkout,
-                          env=env, capture_output=True, text=True, timeout=CHILD_TIMEOUT_S,
-                          check=False)
+    done = subprocess.run([sys.executable, "-c", code, *map(str, args)], cwd=checkout, env=env,
+                          capture_output=True, text=True, timeout=CHILD_TIMEOUT_S, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"timing child in {checkout} failed: {done.stderr.strip()[-2000:]}")
-    return json.loads(done.stdout.strip().splitlines()[-1])["median_s"]
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 def compare_single_pair(poses: dict, calls: int, baseline: Path, current: Path,
@@ -109,7 +110,8 @@ def compare_single_pair(poses: dict, calls: int, baseline: Path, current: Path,
         np.savez(path, **{k: np.asarray(poses[k][:calls], dtype=np.float64) for k in keys})
         for index in range(rounds):
             for side, root in (("baseline", baseline), ("current", current)):
-                seconds = _child_median(root.resolve(), path, min(WARMUP_CALLS, calls // 4))
+                seconds = run_child(root.resolve(), _CHILD, path,
+                                    min(WARMUP_CALLS, calls // 4))["median_s"]
                 per_round[side].append(1e6 * seconds)
             log(f"N = 1 round {index + 1}/{rounds}: baseline {per_round['baseline'][-1]:.1f} "
                 f"µs, current {per_round['current'][-1]:.1f} µs")

@@ -16,14 +16,13 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from impactnet.training.bench.baseline import CHILD_TIMEOUT_S, LAYOUT_SHIM
+from impactnet.training.bench.baseline import LAYOUT_SHIM, run_child
 
 #: Single-pair calls per child and mode (the first WARMUP are not timed).
 SINGLE_CALLS, WARMUP = 2000, 200
@@ -61,17 +60,6 @@ print(json.dumps(out))
 """
 
 
-def _child(checkout: Path, poses: str, modes: str, batch: int) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(checkout), OMP_NUM_THREADS="1",
-               OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    done = subprocess.run([sys.executable, "-c", _CHILD, poses, modes, str(SINGLE_CALLS),
-                           str(WARMUP), str(batch)], cwd=checkout, env=env, capture_output=True,
-                          text=True, timeout=CHILD_TIMEOUT_S, check=False)
-    if done.returncode != 0:
-        raise RuntimeError(f"timing child in {checkout} failed: {done.stderr.strip()[-2000:]}")
-    return json.loads(done.stdout.strip().splitlines()[-1])
-
-
 def compare(baseline: Path, current: Path, modes: str, scene: str, batch: int, rounds: int,
             log=print) -> dict:
     """Per side and mode, the medians over ``rounds`` of ``n1_us`` and ``batch_us_per_pair``."""
@@ -86,7 +74,8 @@ def compare(baseline: Path, current: Path, modes: str, scene: str, batch: int, r
         np.savez(path, **dict(zip(keys, poses.args())))
         for index in range(rounds):
             for side, root in (("baseline", baseline), ("current", current)):
-                runs[side].append(_child(root.resolve(), path, modes, batch))
+                runs[side].append(run_child(root.resolve(), _CHILD, path, modes,
+                                            SINGLE_CALLS, WARMUP, batch))
             log(f"round {index + 1}/{rounds}: {json.dumps(runs)}")
     return {side: {mode: {key: statistics.median(r[mode][key] for r in results)
                           for key in ("n1_us", "batch_us_per_pair")}

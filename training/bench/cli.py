@@ -21,12 +21,12 @@ Nothing heavy is imported at module level (numpy comes after the thread count is
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
+from impactnet.training.bench.timing import pin_single_thread  # stdlib only: numpy stays out
+
 DEFAULT_OUT = "bench_results"
-_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 def _grids(text: str) -> tuple[int, ...]:
@@ -72,9 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _pin_single_thread() -> None:
-    for name in _THREAD_VARIABLES:
-        os.environ[name] = "1"
-    if "numpy" in sys.modules:
+    if not pin_single_thread():  # numpy came first: too late for BLAS to see it
         print("impactnet bench: warning: numpy was imported before the thread count was "
               "pinned; BLAS may use several threads.", file=sys.stderr)
 

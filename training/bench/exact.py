@@ -37,8 +37,14 @@ import os
 # One thread: these must be set before numpy is first imported (BLAS reads them when it loads).
 # `impactnet bench exact` has set them already; this covers `python -m
 # impactnet.training.bench.exact`.
-for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_name] = "1"
+from impactnet.training.bench.timing import (  # noqa: E402  (stdlib only: numpy not yet)
+    machine_info,
+    median_per_call,
+    median_repeated,
+    pin_single_thread,
+)
+
+pin_single_thread()
 
 import argparse  # noqa: E402
 import datetime  # noqa: E402
@@ -48,8 +54,6 @@ import time  # noqa: E402
 from dataclasses import asdict, dataclass, field  # noqa: E402
 
 import numpy as np  # noqa: E402
-
-from impactnet.training.bench.timing import machine_info, median_per_call, median_repeated  # noqa: E402
 
 CUBE = (2.0, 2.0, 2.0)  # the paper's cube pair, edge 2 m
 GOAL_FCL_RATIO_1E5 = 7.0  # issue 18: exact / FCL-loop pairs/s at N = 1e5, same run, at least

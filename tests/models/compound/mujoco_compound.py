@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from impactnet.models.geometry.rotations import quaternion_to_matrix
+
 _BODY = '<body name="{name}"><freejoint/>{geoms}</body>'
 _GEOM = ('<geom name="{body}{k}" type="box" size="{half}" pos="{pos}" margin="0" gap="0" '
          'contype="1" conaffinity="1"/>')
@@ -63,7 +65,7 @@ def mujoco_part_contacts(parts_a, parts_b, position_b, quaternion_b) -> list[dic
             points.setdefault(key, []).append((np.array(contact.pos), depth, normal))
             if key not in pairs or depth > pairs[key][0]:
                 pairs[key] = (depth, normal)
-        rot_b = _matrix(quaternion)
+        rot_b = quaternion_to_matrix(quaternion / np.linalg.norm(quaternion))[0]
         out.append({key: value for key, value in pairs.items()
                     if not _hidden(points[key], key, parts_a, parts_b, position, rot_b)})
     return out
@@ -87,10 +89,3 @@ def _covered_in(point, own, parts, rot, position, margin_rel=1e-9) -> bool:
         if k != own and (np.abs(local - np.asarray(part.centre)) < half).all():
             return True
     return False
-
-
-def _matrix(q) -> np.ndarray:
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
