@@ -1,17 +1,21 @@
-"""The exact contact oracle of two compound bodies made of box parts, vectorised over poses
-(issue #20, step 2; convex parts follow with the convex solver).
+"""The exact contact oracle of two compound bodies made of box and convex parts, vectorised
+over poses (issue #20, step 2).
 
 Stages, for N poses of one pair of bodies (A with ``P_a`` parts, B with ``P_b``):
 
-1. Placement: every part's centre in the world, ``p + R c`` (parts are axis-aligned in their
+1. Placement: every part's bounds (a box part itself, a convex part's axis-aligned bounding
+   box in the body frame) centred in the world, ``p + R c`` (parts are not rotated in their
    body's frame, so a part's orientation is its body's), shape (n, P, 3).
-2. Broadphase: the part pairs not separated along any of the six face axes of the two parts
-   (the box solver's face tests without its edge axes, so nothing that touches is culled),
-   over all ``n x P_a x P_b`` at once; the survivors as (pose, part_a, part_b) rows,
-   pose-major.
+2. Broadphase: the part pairs whose bounds are not separated along any of the six face axes
+   of the two bounds (the box solver's face tests without its edge axes, so nothing that
+   touches is culled), over all ``n x P_a x P_b`` at once; the survivors as
+   (pose, part_a, part_b) rows, pose-major.
 3. Narrowphase: one call of the box solver (:func:`impactnet.models.box.exact.box_box`) on all
-   survivors; its conventions hold for every part contact (normal from A's part towards B's,
-   the centre of pressure as the point, DESIGN.md).
+   surviving pairs of box parts, one call of the convex solver
+   (:func:`impactnet.models.compound.convex_contact.convex_contacts`) per pair of parts with a
+   convex one; the conventions hold for every part contact (normal from A's part towards B's,
+   the centre of pressure as the point, DESIGN.md). Features are int32: box ids for box
+   parts, hull ids for convex ones.
 4. Filter: a part contact whose touched surface one body covers with its other parts is
    dropped (a container's roof under its own top castings): all of its manifold points, moved
    from the mid-surface back onto that body's part, inside other parts of that body (deeper
@@ -29,7 +33,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from impactnet.models.box.exact import box_box
-from impactnet.models.compound.parts import BoxPart, Part, PartError
+from impactnet.models.compound.convex_contact import convex_contacts
+from impactnet.models.compound.hull import hull_of
+from impactnet.models.compound.parts import BoxPart, Part, bounds
 from impactnet.models.contacts import Contacts
 from impactnet.models.geometry.rotations import quaternion_to_matrix, validate_quaternion
 
@@ -62,14 +68,11 @@ class PartContacts:
         return slice(int(self.offsets[i]), int(self.offsets[i + 1]))
 
 
-def _box_table(parts: tuple[Part, ...], body: str) -> tuple[np.ndarray, np.ndarray]:
-    """(sizes (P, 3), centres (P, 3)) of a body's parts; only box parts are solved yet."""
-    for part in parts:
-        if not isinstance(part, BoxPart):
-            raise PartError(part.name, f"body {body!r}: convex parts need the convex solver, "
-                                       "which this oracle does not have yet (box parts only)")
-    return (np.array([p.size for p in parts], np.float64),
-            np.array([p.centre for p in parts], np.float64))
+def _bounds_table(parts: tuple[Part, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """(sizes (P, 3), centres (P, 3)) of the parts' axis-aligned bounds in the body frame: the
+    box parts themselves, the convex parts' bounding boxes (for the broadphase)."""
+    lo, hi = np.array([bounds(p)[0] for p in parts]), np.array([bounds(p)[1] for p in parts])
+    return hi - lo, 0.5 * (lo + hi)
 
 
 def _poses(position, quaternion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -96,8 +99,9 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
     PartContacts
         The colliding part pairs of every pose, after the filter of internal contacts.
     """
-    size_a, local_a = _box_table(tuple(parts_a), "A")
-    size_b, local_b = _box_table(tuple(parts_b), "B")
+    parts_a, parts_b = tuple(parts_a), tuple(parts_b)
+    size_a, local_a = _bounds_table(parts_a)
+    size_b, local_b = _bounds_table(parts_b)
     pos_a, q_a, rot_a = _poses(position_a, quaternion_a)
     pos_b, q_b, rot_b = _poses(position_b, quaternion_b)
     n = max(len(pos_a), len(pos_b))
@@ -107,11 +111,11 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
     world_a = pos_a[:, None, :] + np.einsum("nij,pj->npi", rot_a, local_a)  # (n, Pa, 3)
     world_b = pos_b[:, None, :] + np.einsum("nij,pj->npi", rot_b, local_b)
     pose, i, j = _broadphase(local_a, size_a, local_b, size_b, pos_b - pos_a, rot_a, rot_b)
-    found = _narrowphase(size_a[i], world_a[pose, i], q_a[pose], size_b[j], world_b[pose, j],
-                         q_b[pose])
+    found = _narrowphase(parts_a, parts_b, pose, i, j, (pos_a, q_a, rot_a, world_a, size_a),
+                         (pos_b, q_b, rot_b, world_b, size_b))
     rows = np.flatnonzero(found.colliding)
-    rows = rows[~_hidden(found, rows, pose, i, j, (world_a, rot_a, size_a),
-                         (world_b, rot_b, size_b))]
+    rows = rows[~_hidden(found, rows, pose, i, j, (pos_a, rot_a, parts_a),
+                         (pos_b, rot_b, parts_b))]
     pose = pose[rows]
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(np.bincount(pose, minlength=n), out=offsets[1:])
@@ -119,9 +123,48 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
                         j[rows].astype(np.int16), found.take(rows), offsets)
 
 
-def _narrowphase(*columns) -> Contacts:
-    """The box solver on the surviving part pairs: one vectorised call, or, for the few pairs
-    of a single pose, one call per pair on the solver's plain-float path (bit-identical to the
+def _narrowphase(parts_a, parts_b, pose, i, j, body_a, body_b) -> Contacts:
+    """The exact contact of every surviving part pair: box pairs through the box solver in one
+    call, every other pair of parts through the convex solver, one call per pair of parts;
+    the rows in the order of the survivors."""
+    pos_a, q_a, rot_a, world_a, size_a = body_a
+    pos_b, q_b, rot_b, world_b, size_b = body_b
+    box_a = np.array([isinstance(p, BoxPart) for p in parts_a])
+    box_b = np.array([isinstance(p, BoxPart) for p in parts_b])
+    both = box_a[i] & box_b[j]
+    rows = np.flatnonzero(both)
+    pieces = [(rows, _box_pairs(size_a[i[rows]], world_a[pose[rows], i[rows]], q_a[pose[rows]],
+                                size_b[j[rows]], world_b[pose[rows], j[rows]],
+                                q_b[pose[rows]]))]
+    others = np.flatnonzero(~both)
+    pair_key = i[others].astype(np.int64) * len(parts_b) + j[others]
+    for key in np.unique(pair_key):
+        rows = others[pair_key == key]
+        at = pose[rows]
+        pieces.append((rows, convex_contacts(hull_of(parts_a[key // len(parts_b)]),
+                                             hull_of(parts_b[key % len(parts_b)]), pos_a[at],
+                                             rot_a[at], pos_b[at], rot_b[at])))
+    return _in_order(pieces, len(pose))
+
+
+def _in_order(pieces, k: int) -> Contacts:
+    """The pieces' rows (each ``(rows, Contacts)``) as one Contacts of k rows, features int32."""
+    order = np.concatenate([rows for rows, _ in pieces])
+    where = np.empty(k, np.int64)
+    where[order] = np.arange(k)
+    arrays = [found.arrays() for _, found in pieces]
+    merged = {}
+    for name in arrays[0]:
+        column = np.concatenate([a[name] for a in arrays])
+        if name in ("feature_a", "feature_b"):
+            column = column.astype(np.int32)
+        merged[name] = column[where]
+    return Contacts(**merged)
+
+
+def _box_pairs(*columns) -> Contacts:
+    """The box solver on box part pairs: one vectorised call, or, for the few pairs of a
+    single pose, one call per pair on the solver's plain-float path (bit-identical to the
     batch, and free of the batch's fixed NumPy cost)."""
     k = len(columns[0])
     if k == 0 or k > FEW_PAIRS:
@@ -172,13 +215,21 @@ def _hidden(found: Contacts, rows, pose, i, j, body_a, body_b) -> np.ndarray:
     return (count > 0) & (covered_a | covered_b)
 
 
-def _inside_other_part(point, pose, own, world, rot, size) -> np.ndarray:
-    """(k,) bool: ``point`` (k, 3) lies inside a part of the body (``world`` (n, P, 3),
-    ``rot`` (n, 3, 3), ``size`` (P, 3)) other than ``own`` (k,), by more than
-    :data:`INSIDE_MARGIN_REL` of that part's smallest edge on every axis; all parts at once."""
-    gap = point[:, None, :] - world[pose]  # (k, P, 3)
-    local = gap @ rot[pose]  # R^T gap, each part's frame (parts share the body's rotation)
-    margin = 0.5 * size - INSIDE_MARGIN_REL * size.min(axis=1, keepdims=True)
-    inside = (np.abs(local) < margin[None]).all(axis=2)
-    inside[np.arange(len(own)), own] = False
-    return inside.any(axis=1)
+def _inside_other_part(point, pose, own, position, rot, parts) -> np.ndarray:
+    """(k,) bool: ``point`` (k, 3, world) lies inside a part of the body (origins ``position``
+    (n, 3), rotations ``rot`` (n, 3, 3), ``parts``) other than ``own`` (k,), by more than
+    :data:`INSIDE_MARGIN_REL` of that part's smallest extent across every face: the parts'
+    bounds first, then the faces of the parts whose bounds hold the point."""
+    local = np.einsum("kji,kj->ki", rot[pose], point - position[pose])  # R^T (x - p)
+    size, centre = _bounds_table(parts)
+    margin = INSIDE_MARGIN_REL * size.min(axis=1)
+    near = (np.abs(local[:, None, :] - centre[None]) < 0.5 * size[None]).all(axis=2)
+    near[np.arange(len(own)), own] = False
+    item, part = np.nonzero(near)
+    inside = np.zeros(len(own), bool)
+    for p in np.unique(part):
+        normals, offsets = hull_of(parts[p]).inside_planes()
+        at = item[part == p]
+        gap = (local[at] @ normals.T - offsets).max(axis=1)
+        inside[at[gap < -margin[p]]] = True
+    return inside

@@ -1,10 +1,8 @@
 """The compound oracle on box parts: analytic stacking, the ragged layout, invariants."""
 import numpy as np
-import pytest
 
 from impactnet.models.compound import crane_bodies as cb
 from impactnet.models.compound.oracle import compound_contacts
-from impactnet.models.compound.parts import PartError
 from impactnet.models.geometry.rotations import (
     quaternion_to_matrix,
     random_quaternions,
@@ -103,9 +101,3 @@ def test_one_pose_equals_its_row_of_a_batch():
         rows = batch.of_pose(k)
         np.testing.assert_array_equal(one.part_a, batch.part_a[rows])
         np.testing.assert_array_equal(one.contacts.point, batch.contacts.point[rows])
-
-
-def test_convex_parts_are_refused_until_the_convex_solver_exists():
-    with pytest.raises(PartError, match="convex solver"):
-        compound_contacts(cb.spreader("40ft"), np.zeros(3), IDENTITY, FORTY, [0, 0, -2.0],
-                          IDENTITY)

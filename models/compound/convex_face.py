@@ -1,0 +1,203 @@
+"""The face contact of two convex polyhedra: centre of pressure, depth, incident feature and
+manifold, for m poses at once, in the reference body's frame (DESIGN.md's rule, as in
+:mod:`impactnet.models.box.pressure`).
+
+The reference face (outward normal ``n``, plane ``n . x = h``) belongs to the reference hull;
+the other hull is incident, its vertices given in the reference hull's frame. Depth below the
+reference plane is ``d = h - n . x``, the pressure ``p = d + tau`` with the box solver's floor
+``tau`` (:data:`impactnet.models.box.pressure.PRESSURE_FLOOR_REL` of the pair's scale).
+
+* Region: every fan triangle of every incident face that looks towards the reference face
+  (``m . n < 0``), in the reference plane's coordinates (u, w), clipped to ``p >= 0`` and to
+  the reference face's side planes (:mod:`impactnet.models.compound.polygon_clip`); all
+  (pose, triangle) items that reach ``p >= 0`` at once.
+* Point: the pressure-weighted mean of the mid-surface points ``y - n d / 2``; a pose whose
+  region is empty takes the incident hull's deepest vertex, moved half its depth back.
+* Depth: the separating-axis overlap, or the region's deepest point where that is shallower
+  by more than :data:`impactnet.models.box.pressure.REGION_DEPTH_TOL_REL` (the incident hull
+  hangs past the reference face's rim).
+* Incident feature: of the incident faces that hold the deepest vertex, the one most
+  anti-parallel to ``n``; its vertices within :data:`impactnet.models.box.manifold.SNAP_TOL_REL`
+  of ``p >= 0`` name a face (3 or more), an edge (2) or a vertex (1).
+* Manifold: that incident face clipped like the region, at most
+  :data:`impactnet.models.contacts.MAX_MANIFOLD_POINTS` of its vertices (evenly spread along
+  the polygon where it has more), on the mid-surface.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from impactnet.models.box.manifold import SNAP_TOL_REL
+from impactnet.models.box.pressure import PRESSURE_FLOOR_REL, REGION_DEPTH_TOL_REL
+from impactnet.models.compound import polygon_clip as pc
+from impactnet.models.compound.convex_sat import cross, dot, rotate
+from impactnet.models.compound.hull import Hull
+from impactnet.models.contacts import MAX_MANIFOLD_POINTS
+
+
+@dataclass
+class FaceRegion:
+    """Face contacts of m poses, reference body's frame."""
+
+    point: np.ndarray  # (m, 3) centre of pressure on the mid-surface (m)
+    depth: np.ndarray  # (m,) penetration (m)
+    pressure: np.ndarray  # (m,) int (d + tau) dA (m^3)
+    feature: np.ndarray  # (m,) the incident hull's feature id
+    rank: np.ndarray  # (m,) 1 vertex, 2 edge, 3 face
+    manifold: np.ndarray  # (m, 8, 3) mid-surface points, zero padded
+    manifold_depth: np.ndarray  # (m, 8)
+    manifold_count: np.ndarray  # (m,)
+
+
+def _plane_frames(ref: Hull, face: np.ndarray):
+    """Per pose: normal n (m, 3), offset h (m,), origin o (m, 3), in-plane axes e_u, e_w."""
+    n, h = ref.face_normals[face], ref.face_offsets[face]
+    origin = ref.vertices[ref.face_loops[face, 0]]
+    e_u = ref.vertices[ref.face_loops[face, 1]] - origin
+    e_u = e_u / np.sqrt(dot(e_u, e_u))[:, None]
+    return n, h, origin, e_u, cross(n, e_u)
+
+
+def _side_coefficients(ref: Hull, face: np.ndarray, origin, e_u, e_w, side: int):
+    """(m, 4) half-plane ``c . (u, w, p, 1) >= 0`` of side ``side`` of each reference face
+    (its edge from loop slot ``side`` to the next), normalised to metres; (0, 0, 0, 1) for a
+    face with fewer sides."""
+    loops, counts = ref.face_loops[face], ref.face_counts[face]
+    has = side < counts
+    start = ref.vertices[loops[:, min(side, loops.shape[1] - 1)]] - origin
+    end = ref.vertices[loops[np.arange(len(face)), np.where(side + 1 < counts, side + 1, 0)]]
+    end = end - origin
+    a = np.stack([dot(start, e_u), dot(start, e_w)], axis=1)
+    b = np.stack([dot(end, e_u), dot(end, e_w)], axis=1)
+    edge = b - a
+    length = np.sqrt(edge[:, 0] ** 2 + edge[:, 1] ** 2)
+    safe = np.where(has & (length > 0.0), length, 1.0)
+    coefficients = np.stack([-edge[:, 1], edge[:, 0], np.zeros(len(face)),
+                             edge[:, 1] * a[:, 0] - edge[:, 0] * a[:, 1]], axis=1) / safe[:, None]
+    return np.where(has[:, None], coefficients, np.array([0.0, 0.0, 0.0, 1.0]))
+
+
+def _clip_to_face(ref, face, frames, polygons, counts, item_row):
+    """Polygons of items (k) clipped to ``p >= 0`` and their rows' reference faces."""
+    polygons, counts = pc.clip(polygons, counts, np.array([0.0, 0.0, 1.0, 0.0]), True)
+    _, _, origin, e_u, e_w = frames
+    for side in range(int(ref.face_counts[face].max(initial=0))):
+        coefficients = _side_coefficients(ref, face, origin, e_u, e_w, side)[item_row]
+        if len(counts) == 0:
+            break
+        polygons, counts = pc.clip(polygons, counts, coefficients)
+    return polygons, counts
+
+
+def _region(ref, face, frames, inc: Hull, rot_inc, uwp):
+    """Moments (4, m) and the deepest pressure (m,) of the regions."""
+    m = len(face)
+    n = frames[0]
+    front = dot(rotate(rot_inc, inc.face_normals), n[:, None]) < 0.0  # (m, F_inc)
+    tri_p = uwp[:, :, pc.P][:, inc.triangles]  # (m, T, 3)
+    reach = front[:, inc.triangle_face] & (tri_p.max(axis=2) >= 0.0)
+    row, tri = np.nonzero(reach)
+    polygons = uwp[row[:, None], inc.triangles[tri]]  # (k, 3, 3)
+    polygons, counts = _clip_to_face(ref, face, frames, polygons, np.full(len(row), 3), row)
+    per_item = pc.moments(polygons, counts)
+    totals = np.stack([np.bincount(row, per_item[i], minlength=m) for i in range(4)])
+    slot = np.arange(polygons.shape[1])[None, :] < counts[:, None]
+    reached = np.where(slot, polygons[:, :, pc.P], -np.inf).max(axis=1, initial=-np.inf)
+    deepest = np.full(m, -np.inf)
+    np.maximum.at(deepest, row, reached)
+    return totals, deepest, front
+
+
+def _incident_feature(inc: Hull, rot_inc, n, uwp, tau, scale):
+    """(feature id, rank, incident face) per pose (module docstring)."""
+    m = len(n)
+    pressure = uwp[:, :, pc.P]
+    deepest = np.argmax(pressure, axis=1)
+    facing = dot(rotate(rot_inc, inc.face_normals), n[:, None])  # (m, F_inc)
+    facing = np.where(inc.vertex_faces[deepest], facing, np.inf)
+    face = np.argmin(facing, axis=1)
+    loops, counts = inc.face_loops[face], inc.face_counts[face]
+    slot = np.arange(loops.shape[1])[None, :] < counts[:, None]
+    depth = np.where(slot, np.take_along_axis(pressure, loops, axis=1) - tau[:, None], -np.inf)
+    touching = (depth >= -(SNAP_TOL_REL * scale)[:, None]).sum(axis=1)
+    order = np.argsort(-depth, axis=1, kind="stable")
+    first = loops[np.arange(m), order[:, 0]]
+    second = loops[np.arange(m), order[:, min(1, loops.shape[1] - 1)]]
+    edge = inc.edge_of_vertices[first, second]
+    feature = np.where(touching >= 3, face,
+                       np.where((touching == 2) & (edge >= 0), inc.edge_id(edge),
+                                inc.vertex_id(first)))
+    rank = np.where(touching >= 3, 3, np.where((touching == 2) & (edge >= 0), 2, 1))
+    return feature, rank, face
+
+
+def _manifold(ref, face, frames, inc: Hull, inc_face, uwp, tau):
+    """Mid-surface points (m, 8, 3), depths (m, 8) and counts (m,) of the clipped incident
+    face."""
+    m = len(face)
+    n, _, origin, e_u, e_w = frames
+    loops, counts = inc.face_loops[inc_face], inc.face_counts[inc_face]
+    polygons = np.take_along_axis(uwp, loops[:, :, None], axis=1)
+    polygons, counts = _clip_to_face(ref, face, frames, polygons, counts, np.arange(m))
+    width = polygons.shape[1]
+    pick = (np.arange(MAX_MANIFOLD_POINTS)[None, :] * np.maximum(counts, 1)[:, None]
+            // MAX_MANIFOLD_POINTS)
+    pick = np.where(counts[:, None] > MAX_MANIFOLD_POINTS, pick,
+                    np.minimum(np.arange(MAX_MANIFOLD_POINTS)[None, :], width - 1))
+    chosen = np.take_along_axis(polygons, pick[:, :, None], axis=1)
+    count = np.minimum(counts, MAX_MANIFOLD_POINTS)
+    valid = np.arange(MAX_MANIFOLD_POINTS)[None, :] < count[:, None]
+    depth = np.where(valid, np.maximum(chosen[:, :, pc.P] - tau[:, None], 0.0), 0.0)
+    points = (origin[:, None] + chosen[:, :, pc.U, None] * e_u[:, None]
+              + chosen[:, :, pc.W, None] * e_w[:, None] - 0.5 * depth[:, :, None] * n[:, None])
+    return np.where(valid[:, :, None], points, 0.0), depth, count
+
+
+def face_region(ref: Hull, face: np.ndarray, inc: Hull, x_inc: np.ndarray, rot_inc: np.ndarray,
+                sat_depth: np.ndarray, scale: np.ndarray) -> FaceRegion:
+    """The face contacts of m poses (module docstring), in the reference hull's frame.
+
+    Parameters
+    ----------
+    ref : Hull
+        The hull of the reference face.
+    face : ndarray of int, shape (m,)
+        The reference face of each pose.
+    inc : Hull
+        The incident hull.
+    x_inc : ndarray, shape (m, V_inc, 3)
+        The incident hull's vertices in the reference frame (metres).
+    rot_inc : ndarray, shape (m, 3, 3)
+        The rotation from the incident hull's frame to the reference frame.
+    sat_depth : ndarray, shape (m,)
+        The separating-axis overlap along the reference normal (metres).
+    scale : ndarray, shape (m,)
+        The pair's scale (metres).
+    """
+    tau = PRESSURE_FLOOR_REL * scale
+    frames = _plane_frames(ref, face)
+    n, h, origin, e_u, e_w = frames
+    rel = x_inc - origin[:, None]
+    uwp = np.stack([dot(rel, e_u[:, None]), dot(rel, e_w[:, None]),
+                    h[:, None] - dot(x_inc, n[:, None]) + tau[:, None]], axis=2)
+    totals, deepest, _ = _region(ref, face, frames, inc, rot_inc, uwp)
+    found = totals[0] > 0.0
+    safe = np.where(found, totals[0], 1.0)
+    offset = np.maximum(0.5 * (totals[3] / safe) - 0.5 * tau, 0.0)
+    point = (origin + (totals[1] / safe)[:, None] * e_u + (totals[2] / safe)[:, None] * e_w
+             - offset[:, None] * n)
+    top = np.argmax(uwp[:, :, pc.P], axis=1)
+    top_depth = np.maximum(uwp[np.arange(len(face)), top, pc.P] - tau, 0.0)
+    fallback = x_inc[np.arange(len(face)), top] + 0.5 * top_depth[:, None] * n
+    region_depth = np.maximum(deepest - tau, 0.0)
+    shallower = found & (region_depth < sat_depth - REGION_DEPTH_TOL_REL * scale)
+    feature, rank, inc_face = _incident_feature(inc, rot_inc, n, uwp, tau, scale)
+    manifold, manifold_depth, count = _manifold(ref, face, frames, inc, inc_face, uwp, tau)
+    point = np.where(found[:, None], point, fallback)
+    depth = np.where(shallower, region_depth, sat_depth)
+    empty = count == 0  # nothing of the incident face reaches: the point alone
+    manifold[empty, 0], manifold_depth[empty, 0] = point[empty], depth[empty]
+    return FaceRegion(point, depth, np.where(found, totals[0], 0.0), feature, rank, manifold,
+                      manifold_depth, np.maximum(count, 1))
