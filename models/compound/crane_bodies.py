@@ -36,6 +36,7 @@ import math
 
 import numpy as np
 
+from impactnet.models.compound.casting_detail import top_casting
 from impactnet.models.compound.parts import BoxPart, ConvexPart, Part, validate_parts
 
 #: ISO 668 external dimensions (L, W, H), metres.
@@ -79,22 +80,41 @@ def _corners():
 
 
 def container(kind: str = "40ft", detail: int = 1) -> tuple[Part, ...]:
-    """The parts of an ISO container (module docstring): the body box and 8 castings."""
+    """The parts of an ISO container (module docstring): at detail 1 the body box and 8 solid
+    castings; at detail 2 the top castings with their apertures as convex pieces and hollow
+    below (:mod:`impactnet.models.compound.casting_detail`)."""
     if kind not in CONTAINERS:
         raise ValueError(f"unknown container {kind!r}; choose one of {sorted(CONTAINERS)}")
-    if detail != 1:
-        raise ValueError("detail level 2 (the castings' apertures) needs the convex solver; "
-                         "only detail 1 exists yet")
+    if detail not in (1, 2):
+        raise ValueError(f"container detail is 1 (solid castings) or 2 (apertures), got {detail}")
     length, width, height = CONTAINERS[kind]
     top, bottom = height / 2 - ROOF_BELOW_CASTINGS, -height / 2 + BASE_ABOVE_CASTINGS
-    parts: list[Part] = [BoxPart("body", (length, width, top - bottom),
-                                 (0.0, 0.0, 0.5 * (top + bottom)))]
     cl, cw, ch = CASTING
-    for sx, sy, corner in _corners():
-        for sz, level in ((1, "top"), (-1, "bottom")):
-            centre = (sx * (length - cl) / 2, sy * (width - cw) / 2, sz * (height - ch) / 2)
-            parts.append(BoxPart(f"casting_{level}_{corner}", CASTING, centre))
+    parts: list[Part] = (_split_body(length, width, top, bottom) if detail == 2 else
+                         [BoxPart("body", (length, width, top - bottom),
+                                  (0.0, 0.0, 0.5 * (top + bottom)))])
+    for (sx, sy, corner), aperture in zip(_corners(), aperture_centres(kind)):
+        x, y = sx * (length - cl) / 2, sy * (width - cw) / 2
+        parts.append(BoxPart(f"casting_bottom_{corner}", CASTING, (x, y, -(height - ch) / 2)))
+        centre = (x, y, (height - ch) / 2)
+        if detail == 1:
+            parts.append(BoxPart(f"casting_top_{corner}", CASTING, centre))
+            continue
+        parts += top_casting(f"casting_top_{corner}", centre, CASTING,
+                             (aperture[0] - x, aperture[1] - y), APERTURE_DIAMETER,
+                             APERTURE_FLATS)
+        parts.append(BoxPart(f"post_{corner}", (cl, cw, height - 2 * ch), (x, y, 0.0)))
     return validate_parts(f"container {kind}", parts)
+
+
+def _split_body(length, width, top, bottom) -> list[Part]:
+    """The body at detail 2: a middle box between the end frames' castings and two end boxes
+    between each end's castings, so that the corner columns hold only castings and posts."""
+    cl, cw, _ = CASTING
+    z, h = 0.5 * (top + bottom), top - bottom
+    return [BoxPart("body", (length - 2 * cl, width, h), (0.0, 0.0, z)),
+            BoxPart("end_front", (cl, width - 2 * cw, h), ((length - cl) / 2, 0.0, z)),
+            BoxPart("end_rear", (cl, width - 2 * cw, h), (-(length - cl) / 2, 0.0, z))]
 
 
 def aperture_centres(kind: str = "40ft") -> np.ndarray:

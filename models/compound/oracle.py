@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from impactnet.models.box.exact import box_box
+from impactnet.models.compound.broadphase import broadphase
 from impactnet.models.compound.convex_contact import convex_contacts
 from impactnet.models.compound.hull import hull_of
 from impactnet.models.compound.parts import BoxPart, Part, bounds
@@ -46,11 +47,6 @@ INSIDE_MARGIN_REL = 1e-9
 #: Up to this many surviving part pairs are solved one by one on the plain-float path (the
 #: batch path's fixed cost, ~1 ms, is worth it only for more).
 FEW_PAIRS = 12
-#: Poses per broadphase chunk: its (chunk, P_a, P_b, 3) arrays stay a few tens of MB.
-BROADPHASE_CHUNK = 8192
-#: Added to |R| in the broadphase (dimensionless): a pair touching within round-off is never
-#: culled (the narrowphase decides it).
-ABS_ROTATION_EPS = 1e-12
 
 
 @dataclass(frozen=True)
@@ -110,7 +106,8 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
     rot_a, rot_b = np.broadcast_to(rot_a, (n, 3, 3)), np.broadcast_to(rot_b, (n, 3, 3))
     world_a = pos_a[:, None, :] + np.einsum("nij,pj->npi", rot_a, local_a)  # (n, Pa, 3)
     world_b = pos_b[:, None, :] + np.einsum("nij,pj->npi", rot_b, local_b)
-    pose, i, j = _broadphase(local_a, size_a, local_b, size_b, pos_b - pos_a, rot_a, rot_b)
+    pose, i, j = broadphase(parts_a, (local_a, size_a), parts_b, (local_b, size_b),
+                            pos_b - pos_a, rot_a, rot_b)
     found = _narrowphase(parts_a, parts_b, pose, i, j, (pos_a, q_a, rot_a, world_a, size_a),
                          (pos_b, q_b, rot_b, world_b, size_b))
     rows = np.flatnonzero(found.colliding)
@@ -171,31 +168,6 @@ def _box_pairs(*columns) -> Contacts:
         return box_box(*columns)
     rows = [box_box(*(c[r] for c in columns)).arrays() for r in range(k)]
     return Contacts(**{name: np.concatenate([row[name] for row in rows]) for name in rows[0]})
-
-
-def _broadphase(local_a, size_a, local_b, size_b, offset, rot_a, rot_b):
-    """(pose, part_a, part_b) of the part pairs not separated along any of the six face axes
-    of the two parts (parts of a body share its orientation, so one relative rotation per
-    pose serves all its part pairs), pose-major; chunked over poses to bound the memory."""
-    found = []
-    half_a, half_b = 0.5 * size_a, 0.5 * size_b
-    for start in range(0, len(offset), BROADPHASE_CHUNK):
-        stop = min(len(offset), start + BROADPHASE_CHUNK)
-        ra_t, rb = rot_a[start:stop].transpose(0, 2, 1), rot_b[start:stop]
-        rel = ra_t @ rb  # R = R_A^T R_B, (m, 3, 3)
-        absolute = np.abs(rel) + ABS_ROTATION_EPS
-        t_b = (ra_t @ offset[start:stop, :, None])[:, :, 0]  # B's origin in A's frame
-        centres_b = t_b[:, None, :] + (rel @ local_b.T).transpose(0, 2, 1)  # (m, Pb, 3)
-        t = centres_b[:, None, :, :] - local_a[None, :, None, :]  # (m, Pa, Pb, 3), A's frame
-        reach_a = half_a[None, :, None, :] + (absolute @ half_b.T).transpose(0, 2, 1)[:, None]
-        ok = (np.abs(t) <= reach_a).all(axis=3)
-        m, pa, pb = ok.shape
-        u = (t.reshape(m, pa * pb, 3) @ rel).reshape(m, pa, pb, 3)  # the offsets, B's frame
-        reach_b = half_b[None, None, :, :] + (half_a @ absolute)[:, :, None, :]
-        ok &= (np.abs(u) <= reach_b).all(axis=3)
-        pose, i, j = np.nonzero(ok)
-        found.append((pose + start, i, j))
-    return tuple(np.concatenate(parts) for parts in zip(*found))
 
 
 def _hidden(found: Contacts, rows, pose, i, j, body_a, body_b) -> np.ndarray:
