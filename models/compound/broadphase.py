@@ -15,6 +15,8 @@ all their own groups skip level 2.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 #: Poses per level-1 chunk: its (chunk, G_a, G_b, 3) arrays stay a few tens of MB.
@@ -35,9 +37,10 @@ def groups_of(parts) -> tuple[np.ndarray, list[np.ndarray]]:
     return group, [np.flatnonzero(group == g) for g in range(len(order))]
 
 
-def _group_bounds(bounds, members) -> tuple[np.ndarray, np.ndarray]:
+@lru_cache(maxsize=64)
+def _group_bounds(table) -> tuple[np.ndarray, np.ndarray]:
     """(centres (G, 3), sizes (G, 3)) of the union of each group's part bounds."""
-    centre, size = bounds
+    centre, size, members = table.centre, table.size, table.members
     lo = np.array([(centre[m] - 0.5 * size[m]).min(axis=0) for m in members])
     hi = np.array([(centre[m] + 0.5 * size[m]).max(axis=0) for m in members])
     return 0.5 * (lo + hi), hi - lo
@@ -76,9 +79,11 @@ def _level_one(centre_a, size_a, centre_b, size_b, offset, rot_a, rot_b):
     return tuple(np.concatenate(parts) for parts in zip(*found))
 
 
-def _member_pairs(members_a, members_b):
+@lru_cache(maxsize=64)
+def _member_pairs(table_a, table_b):
     """CSR table of the member part pairs of every group pair: (start (G_a * G_b + 1,),
     part_a, part_b)."""
+    members_a, members_b = table_a.members, table_b.members
     count = np.array([len(ma) * len(mb) for ma in members_a for mb in members_b])
     start = np.zeros(len(count) + 1, np.int64)
     np.cumsum(count, out=start[1:])
@@ -87,27 +92,25 @@ def _member_pairs(members_a, members_b):
             np.concatenate([j.ravel() for _, j in pairs]))
 
 
-def broadphase(parts_a, bounds_a, parts_b, bounds_b, offset, rot_a, rot_b):
+def broadphase(table_a, table_b, offset, rot_a, rot_b):
     """(pose, part_a, part_b) of the part pairs that may touch, pose-major (module docstring).
 
     Parameters
     ----------
-    parts_a, parts_b : tuple of Part
-        The bodies' parts (their names give the groups).
-    bounds_a, bounds_b : tuple of ndarray
-        (centres (P, 3), sizes (P, 3)) of the parts' bounds in their body's frame (metres).
+    table_a, table_b : impactnet.models.compound.body_table.BodyTable
+        The bodies' parts: bounds (centres and sizes, body frame, metres) and groups.
     offset : ndarray, shape (n, 3)
         ``p_B - p_A`` (metres, world).
     rot_a, rot_b : ndarray, shape (n, 3, 3)
         The bodies' rotations.
     """
-    group_a, members_a = groups_of(parts_a)
-    group_b, members_b = groups_of(parts_b)
-    if len(members_a) == len(parts_a) and len(members_b) == len(parts_b):
+    bounds_a, bounds_b = (table_a.centre, table_a.size), (table_b.centre, table_b.size)
+    members_a, members_b = table_a.members, table_b.members
+    if len(members_a) == len(table_a.parts) and len(members_b) == len(table_b.parts):
         return _level_one(*bounds_a, *bounds_b, offset, rot_a, rot_b)
-    pose, ga, gb = _level_one(*_group_bounds(bounds_a, members_a),
-                              *_group_bounds(bounds_b, members_b), offset, rot_a, rot_b)
-    start, pair_a, pair_b = _member_pairs(members_a, members_b)
+    pose, ga, gb = _level_one(*_group_bounds(table_a), *_group_bounds(table_b), offset, rot_a,
+                              rot_b)
+    start, pair_a, pair_b = _member_pairs(table_a, table_b)
     key = ga * len(members_b) + gb
     count = start[key + 1] - start[key]
     item_pose = np.repeat(pose, count)

@@ -33,10 +33,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from impactnet.models.box.exact import box_box
+from impactnet.models.compound.body_table import body_table
 from impactnet.models.compound.broadphase import broadphase
 from impactnet.models.compound.convex_contact import convex_contacts
-from impactnet.models.compound.hull import hull_of
-from impactnet.models.compound.parts import BoxPart, Part, bounds
 from impactnet.models.contacts import Contacts
 from impactnet.models.geometry.rotations import quaternion_to_matrix, validate_quaternion
 
@@ -64,13 +63,6 @@ class PartContacts:
         return slice(int(self.offsets[i]), int(self.offsets[i + 1]))
 
 
-def _bounds_table(parts: tuple[Part, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """(sizes (P, 3), centres (P, 3)) of the parts' axis-aligned bounds in the body frame: the
-    box parts themselves, the convex parts' bounding boxes (for the broadphase)."""
-    lo, hi = np.array([bounds(p)[0] for p in parts]), np.array([bounds(p)[1] for p in parts])
-    return hi - lo, 0.5 * (lo + hi)
-
-
 def _poses(position, quaternion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     position = np.atleast_2d(np.asarray(position, np.float64))
     quaternion = validate_quaternion(np.atleast_2d(np.asarray(quaternion, np.float64)))
@@ -83,7 +75,7 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
 
     Parameters
     ----------
-    parts_a, parts_b : sequence of BoxPart
+    parts_a, parts_b : tuple of BoxPart or ConvexPart
         Validated parts (:func:`impactnet.models.compound.parts.validate_parts`), body frame.
     position_a, position_b : array_like, shape (3,) or (n, 3)
         Body origins in the world (metres).
@@ -95,24 +87,18 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
     PartContacts
         The colliding part pairs of every pose, after the filter of internal contacts.
     """
-    parts_a, parts_b = tuple(parts_a), tuple(parts_b)
-    size_a, local_a = _bounds_table(parts_a)
-    size_b, local_b = _bounds_table(parts_b)
+    table_a, table_b = body_table(parts_a), body_table(parts_b)
     pos_a, q_a, rot_a = _poses(position_a, quaternion_a)
     pos_b, q_b, rot_b = _poses(position_b, quaternion_b)
     n = max(len(pos_a), len(pos_b))
     pos_a, pos_b = np.broadcast_to(pos_a, (n, 3)), np.broadcast_to(pos_b, (n, 3))
     q_a, q_b = np.broadcast_to(q_a, (n, 4)), np.broadcast_to(q_b, (n, 4))
     rot_a, rot_b = np.broadcast_to(rot_a, (n, 3, 3)), np.broadcast_to(rot_b, (n, 3, 3))
-    world_a = pos_a[:, None, :] + np.einsum("nij,pj->npi", rot_a, local_a)  # (n, Pa, 3)
-    world_b = pos_b[:, None, :] + np.einsum("nij,pj->npi", rot_b, local_b)
-    pose, i, j = broadphase(parts_a, (local_a, size_a), parts_b, (local_b, size_b),
-                            pos_b - pos_a, rot_a, rot_b)
-    found = _narrowphase(parts_a, parts_b, pose, i, j, (pos_a, q_a, rot_a, world_a, size_a),
-                         (pos_b, q_b, rot_b, world_b, size_b))
+    pose, i, j = broadphase(table_a, table_b, pos_b - pos_a, rot_a, rot_b)
+    body_a, body_b = (pos_a, q_a, rot_a, table_a), (pos_b, q_b, rot_b, table_b)
+    found = _narrowphase(pose, i, j, body_a, body_b)
     rows = np.flatnonzero(found.colliding)
-    rows = rows[~_hidden(found, rows, pose, i, j, (pos_a, rot_a, parts_a),
-                         (pos_b, rot_b, parts_b))]
+    rows = rows[~_hidden(found, rows, pose, i, j, body_a, body_b)]
     pose = pose[rows]
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(np.bincount(pose, minlength=n), out=offsets[1:])
@@ -120,32 +106,38 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
                         j[rows].astype(np.int16), found.take(rows), offsets)
 
 
-def _narrowphase(parts_a, parts_b, pose, i, j, body_a, body_b) -> Contacts:
+def _narrowphase(pose, i, j, body_a, body_b) -> Contacts:
     """The exact contact of every surviving part pair: box pairs through the box solver in one
     call, every other pair of parts through the convex solver, one call per pair of parts;
     the rows in the order of the survivors."""
-    pos_a, q_a, rot_a, world_a, size_a = body_a
-    pos_b, q_b, rot_b, world_b, size_b = body_b
-    box_a = np.array([isinstance(p, BoxPart) for p in parts_a])
-    box_b = np.array([isinstance(p, BoxPart) for p in parts_b])
-    both = box_a[i] & box_b[j]
+    pos_a, q_a, rot_a, table_a = body_a
+    pos_b, q_b, rot_b, table_b = body_b
+    both = table_a.is_box[i] & table_b.is_box[j]
     rows = np.flatnonzero(both)
-    pieces = [(rows, _box_pairs(size_a[i[rows]], world_a[pose[rows], i[rows]], q_a[pose[rows]],
-                                size_b[j[rows]], world_b[pose[rows], j[rows]],
-                                q_b[pose[rows]]))]
+    at, ia, jb = pose[rows], i[rows], j[rows]
+    centre_a = pos_a[at] + np.einsum("kij,kj->ki", rot_a[at], table_a.centre[ia])
+    centre_b = pos_b[at] + np.einsum("kij,kj->ki", rot_b[at], table_b.centre[jb])
+    pieces = [(rows, _box_pairs(table_a.size[ia], centre_a, q_a[at], table_b.size[jb],
+                                centre_b, q_b[at]))]
     others = np.flatnonzero(~both)
-    pair_key = i[others].astype(np.int64) * len(parts_b) + j[others]
+    count_b = len(table_b.parts)
+    pair_key = i[others].astype(np.int64) * count_b + j[others]
     for key in np.unique(pair_key):
         rows = others[pair_key == key]
         at = pose[rows]
-        pieces.append((rows, convex_contacts(hull_of(parts_a[key // len(parts_b)]),
-                                             hull_of(parts_b[key % len(parts_b)]), pos_a[at],
+        pieces.append((rows, convex_contacts(table_a.hulls[key // count_b],
+                                             table_b.hulls[key % count_b], pos_a[at],
                                              rot_a[at], pos_b[at], rot_b[at])))
     return _in_order(pieces, len(pose))
 
 
 def _in_order(pieces, k: int) -> Contacts:
     """The pieces' rows (each ``(rows, Contacts)``) as one Contacts of k rows, features int32."""
+    if len(pieces) == 1:
+        found = pieces[0][1]
+        found.feature_a = found.feature_a.astype(np.int32)
+        found.feature_b = found.feature_b.astype(np.int32)
+        return found
     order = np.concatenate([rows for rows, _ in pieces])
     where = np.empty(k, np.int64)
     where[order] = np.arange(k)
@@ -187,21 +179,26 @@ def _hidden(found: Contacts, rows, pose, i, j, body_a, body_b) -> np.ndarray:
     return (count > 0) & (covered_a | covered_b)
 
 
-def _inside_other_part(point, pose, own, position, rot, parts) -> np.ndarray:
+def _inside_other_part(point, pose, own, position, _quaternion, rot, table) -> np.ndarray:
     """(k,) bool: ``point`` (k, 3, world) lies inside a part of the body (origins ``position``
-    (n, 3), rotations ``rot`` (n, 3, 3), ``parts``) other than ``own`` (k,), by more than
-    :data:`INSIDE_MARGIN_REL` of that part's smallest extent across every face: the parts'
-    bounds first, then the faces of the parts whose bounds hold the point."""
+    (n, 3), rotations ``rot`` (n, 3, 3), parts in ``table``) other than ``own`` (k,), by more
+    than :data:`INSIDE_MARGIN_REL` of that part's smallest extent across every face. Only the
+    parts whose bounds overlap the own part's can hold its points (``table.partners``): box
+    parts are tested by their bounds, convex parts by their faces."""
     local = np.einsum("kji,kj->ki", rot[pose], point - position[pose])  # R^T (x - p)
-    size, centre = _bounds_table(parts)
-    margin = INSIDE_MARGIN_REL * size.min(axis=1)
-    near = (np.abs(local[:, None, :] - centre[None]) < 0.5 * size[None]).all(axis=2)
-    near[np.arange(len(own)), own] = False
-    item, part = np.nonzero(near)
-    inside = np.zeros(len(own), bool)
-    for p in np.unique(part):
-        normals, offsets = hull_of(parts[p]).inside_planes()
-        at = item[part == p]
-        gap = (local[at] @ normals.T - offsets).max(axis=1)
-        inside[at[gap < -margin[p]]] = True
-    return inside
+    start, partner = table.partners
+    count = start[own + 1] - start[own]
+    item = np.repeat(np.arange(len(own)), count)
+    other = partner[np.repeat(start[own] - np.cumsum(count) + count, count)
+                    + np.arange(len(item))]
+    margin = INSIDE_MARGIN_REL * table.size.min(axis=1)
+    gap = np.abs(local[item] - table.centre[other])  # (items, 3)
+    half = 0.5 * table.size[other]
+    inside = (gap < half - margin[other][:, None]).all(axis=1) & table.is_box[other]
+    near = (gap < half).all(axis=1) & ~table.is_box[other]
+    for part in np.unique(other[near]):
+        at = np.flatnonzero(near & (other == part))
+        normals, offsets = table.hulls[part].inside_planes()
+        depth = (local[item[at]] @ normals.T - offsets).max(axis=1)
+        inside[at] = depth < -margin[part]
+    return np.bincount(item, inside, minlength=len(own)) > 0
