@@ -34,15 +34,27 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
-import re
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from impactnet.models import scene_fields as sf
+from impactnet.models.compound.parts import bounds
+from impactnet.models.compound.scene_parts import (
+    COMPOUND_KEYS,
+    compound_parts,
+    is_compound,
+    parts_geometry,
+)
+from impactnet.models.scene_fields import (  # noqa: F401  (re-exported: the scene's API)
+    MAX_DEPTH_FRACTION,
+    NAME_PATTERN,
+    SceneError,
+)
 
 #: Environment variable naming the folder where bare scene names are looked up.
 SCENES_DIR_ENV = "IMPACTNET_SCENES_DIR"
@@ -51,35 +63,29 @@ DEFAULT_SCENES_DIR = Path(__file__).resolve().parent.parent / "scenes"
 #: The scene the service and the CLI use when none is named.
 DEFAULT_SCENE = "quay_crane"
 
-#: Scene and body names: a letter, then letters, digits, ``_`` or ``-`` (they become file
-#: names and JSON keys, so no path separators or spaces).
-NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_-]*")
-#: Upper bound (exclusive, dimensionless) of depth_fraction: a push as deep as the shortest
-#: edge is a tunnelled body, not a contact a simulator resolves.
-MAX_DEPTH_FRACTION = 1.0
 
 _TOP_KEYS = ({"scene", "accuracy", "bodies", "pairs"}, set())
 _SCENE_KEYS = ({"name", "depth_fraction"}, {"description"})
 _ACCURACY_KEYS = ({"normal_deg", "point_fraction"}, set())
-_BODY_KEYS = ({"size"}, {"description"})
+_BODY_KEYS = (set(), {"size", "description", *COMPOUND_KEYS})
 _PAIR_KEYS = ({"a", "b"}, {"description"})
-
-
-class SceneError(ValueError):
-    """An invalid scene; ``source`` names the file, ``path`` the field, ``reason`` the fault."""
-
-    def __init__(self, source: str, path: str, reason: str):
-        self.source, self.path, self.reason = source, path, reason
-        super().__init__(f"{source}: {path}: {reason}" if path else f"{source}: {reason}")
 
 
 @dataclass(frozen=True)
 class Body:
-    """A box-shaped body of a scene."""
+    """A body of a scene: a box, or a compound body made of parts."""
 
     name: str  # identifier, unique in the scene
-    size: tuple[float, float, float]  # full edge lengths (lx, ly, lz), metres, > 0
+    size: tuple[float, float, float]  # full edge lengths (lx, ly, lz), metres, > 0; for a
+    # compound body the extent of its parts' bounds (its envelope)
     description: str = ""  # free text, not part of the scene hash
+    parts: tuple | None = None  # compound body: its validated parts (body frame); None: a box
+    spec: Mapping | None = field(default=None, compare=False)  # compound: the file's table
+
+    @property
+    def is_compound(self) -> bool:
+        """Whether the body is made of parts (:mod:`impactnet.models.compound`)."""
+        return self.parts is not None
 
 
 @dataclass(frozen=True)
@@ -149,7 +155,8 @@ class Scene:
             scene["description"] = self.description
         bodies = {}
         for body in self.bodies:
-            bodies[body.name] = {"size": list(body.size)}
+            bodies[body.name] = (dict(body.spec) if body.is_compound else
+                                 {"size": list(body.size)})
             if body.description:
                 bodies[body.name]["description"] = body.description
         pairs = [{"a": p.a, "b": p.b, **({"description": p.description} if p.description
@@ -162,7 +169,8 @@ class Scene:
     def hash(self) -> str:
         """SHA-256 (hex) of the scene's content, canonically ordered.
 
-        Covers the name, the depth range, the accuracy, every body's size and the pairs (as
+        Covers the name, the depth range, the accuracy, every body's size (and a compound
+        body's parts: names, kinds, vertices) and the pairs (as
         ordered (a, b) tuples); not the descriptions (documentation, they change no data) and
         not the order of keys, bodies or pairs, nor the file's whitespace or comments.
         """
@@ -170,7 +178,8 @@ class Scene:
             "name": self.name,
             "depth_fraction": list(self.depth_fraction),
             "accuracy": [self.accuracy.normal_deg, self.accuracy.point_fraction],
-            "bodies": {b.name: list(b.size) for b in self.bodies},
+            "bodies": {b.name: [list(b.size), parts_geometry(b.parts)] if b.is_compound
+                       else list(b.size) for b in self.bodies},
             "pairs": sorted([p.a, p.b] for p in self.pairs),
         }
         text = json.dumps(canonical, sort_keys=True, separators=(",", ":"), allow_nan=False)
@@ -243,14 +252,14 @@ def parse_scene(data: Mapping, source: str = "scene") -> Scene:
     """
     if not isinstance(data, Mapping):
         raise SceneError(source, "", f"expected a table, got {type(data).__name__}")
-    _check_keys(data, "", _TOP_KEYS, source)
-    head = _table(data["scene"], "scene", _SCENE_KEYS, source)
-    name = _name(head["name"], "scene.name", source)
-    description = _text(head.get("description", ""), "scene.description", source)
-    depth = _depth_range(head["depth_fraction"], "scene.depth_fraction", source)
-    acc = _table(data["accuracy"], "accuracy", _ACCURACY_KEYS, source)
-    accuracy = Accuracy(_positive(acc["normal_deg"], "accuracy.normal_deg", source),
-                        _positive(acc["point_fraction"], "accuracy.point_fraction", source))
+    sf.check_keys(data, "", _TOP_KEYS, source)
+    head = sf.table(data["scene"], "scene", _SCENE_KEYS, source)
+    name = sf.name(head["name"], "scene.name", source)
+    description = sf.text(head.get("description", ""), "scene.description", source)
+    depth = sf.depth_range(head["depth_fraction"], "scene.depth_fraction", source)
+    acc = sf.table(data["accuracy"], "accuracy", _ACCURACY_KEYS, source)
+    accuracy = Accuracy(sf.positive(acc["normal_deg"], "accuracy.normal_deg", source),
+                        sf.positive(acc["point_fraction"], "accuracy.point_fraction", source))
     bodies = _bodies(data["bodies"], source)
     pairs = _pairs(data["pairs"], {b.name for b in bodies}, source)
     return Scene(name, description, depth, accuracy, bodies, pairs)
@@ -262,15 +271,28 @@ def _bodies(table, source: str) -> tuple[Body, ...]:
     bodies = []
     for key, entry in table.items():
         path = f"bodies.{key}"
-        name = _name(key, path, source)
-        entry = _table(entry, path, _BODY_KEYS, source)
+        name = sf.name(key, path, source)
+        entry = sf.table(entry, path, _BODY_KEYS, source)
+        description = sf.text(entry.get("description", ""), f"{path}.description", source)
+        if is_compound(entry):
+            if "size" in entry:
+                raise SceneError(source, path, "a compound body takes no `size` (its parts "
+                                 "give it)")
+            parts = compound_parts(entry, path, source)
+            lows, highs = zip(*(bounds(p) for p in parts))
+            extent = tuple(float(v) for v in np.max(highs, axis=0) - np.min(lows, axis=0))
+            spec = {k: v for k, v in entry.items() if k != "description"}
+            bodies.append(Body(name, extent, description, parts, spec))
+            continue
+        if "size" not in entry:
+            raise SceneError(source, path, f"missing {path}.size (or, for a compound body, "
+                             "`generator` or `parts`)")
         size = entry["size"]
         if not isinstance(size, list | tuple) or len(size) != 3:
             raise SceneError(source, f"{path}.size",
                              f"expected 3 numbers [lx, ly, lz] in metres, got {size!r}")
-        edges = tuple(_positive(v, f"{path}.size[{i}]", source) for i, v in enumerate(size))
-        bodies.append(Body(name, edges, _text(entry.get("description", ""),
-                                              f"{path}.description", source)))
+        edges = tuple(sf.positive(v, f"{path}.size[{i}]", source) for i, v in enumerate(size))
+        bodies.append(Body(name, edges, description))
     return tuple(bodies)
 
 
@@ -280,8 +302,8 @@ def _pairs(entries, names: set[str], source: str) -> tuple[BodyPair, ...]:
     pairs, seen = [], {}
     for k, entry in enumerate(entries):
         path = f"pairs[{k}]"
-        entry = _table(entry, path, _PAIR_KEYS, source)
-        a, b = (_text(entry[s], f"{path}.{s}", source) for s in "ab")
+        entry = sf.table(entry, path, _PAIR_KEYS, source)
+        a, b = (sf.text(entry[s], f"{path}.{s}", source) for s in "ab")
         for side, body in (("a", a), ("b", b)):
             if body not in names:
                 raise SceneError(source, f"{path}.{side}", f"unknown body {body!r} "
@@ -291,63 +313,6 @@ def _pairs(entries, names: set[str], source: str) -> tuple[BodyPair, ...]:
             raise SceneError(source, path, f"duplicate pair ({a}, {b}): already given as "
                              f"pairs[{seen[unordered]}]")
         seen[unordered] = k
-        pairs.append(BodyPair(a, b, _text(entry.get("description", ""),
+        pairs.append(BodyPair(a, b, sf.text(entry.get("description", ""),
                                           f"{path}.description", source)))
     return tuple(pairs)
-
-
-def _check_keys(table, path: str, keys: tuple[set, set], source: str) -> None:
-    required, optional = keys
-    missing = sorted(required - set(table))
-    if missing:
-        where = f"{path}." if path else ""
-        raise SceneError(source, path or "(top level)",
-                         f"missing {', '.join(where + m for m in missing)}")
-    unknown = sorted(set(table) - required - optional)
-    if unknown:
-        raise SceneError(source, path or "(top level)",
-                         f"unknown key(s) {', '.join(map(repr, unknown))}; allowed: "
-                         f"{', '.join(sorted(required | optional))}")
-
-
-def _table(value, path: str, keys: tuple[set, set], source: str) -> Mapping:
-    if not isinstance(value, Mapping):
-        raise SceneError(source, path, f"expected a table, got {type(value).__name__}")
-    _check_keys(value, path, keys, source)
-    return value
-
-
-def _number(value, path: str, source: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise SceneError(source, path, f"expected a finite number, got {value!r}")
-    return float(value)
-
-
-def _positive(value, path: str, source: str) -> float:
-    number = _number(value, path, source)
-    if number <= 0:
-        raise SceneError(source, path, f"must be > 0, got {value!r}")
-    return number
-
-
-def _depth_range(value, path: str, source: str) -> tuple[float, float]:
-    if not isinstance(value, list | tuple) or len(value) != 2:
-        raise SceneError(source, path, f"expected [lo, hi], got {value!r}")
-    lo, hi = (_number(v, f"{path}[{i}]", source) for i, v in enumerate(value))
-    if not 0.0 <= lo <= hi < MAX_DEPTH_FRACTION:
-        raise SceneError(source, path, f"need 0 <= lo <= hi < {MAX_DEPTH_FRACTION:g}, "
-                         f"got [{lo:g}, {hi:g}]")
-    return lo, hi
-
-
-def _text(value, path: str, source: str) -> str:
-    if not isinstance(value, str):
-        raise SceneError(source, path, f"expected a string, got {value!r}")
-    return value
-
-
-def _name(value, path: str, source: str) -> str:
-    if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
-        raise SceneError(source, path, f"bad name {value!r}: a letter, then letters, "
-                         "digits, '_' or '-'")
-    return value

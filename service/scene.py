@@ -28,6 +28,7 @@ class SceneView:
     object_names: tuple[str, ...] = ()  # sorted body names
     sizes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (k, 3) metres
     pairs: tuple[tuple[str, str], ...] = ()  # (a, b) names of the pairs that can collide
+    compound_names: tuple[str, ...] = ()  # bodies made of parts: not served as boxes
 
     def __post_init__(self) -> None:
         self.sizes.setflags(write=False)
@@ -59,28 +60,31 @@ class SceneView:
             "hash": self.hash,
             "objects": {n: s for n, s in zip(self.object_names, self.sizes.tolist(), strict=True)},
             "pairs": [list(p) for p in self.pairs],
+            "compound_objects": list(self.compound_names),
         }
 
 
 EMPTY_SCENE = SceneView(name=None, hash=None)
 
 
-def _bodies_of(scene) -> dict:
-    """name -> size of ``scene.bodies`` (a tuple of Body, or a name -> Body mapping)."""
+def _bodies_of(scene) -> tuple[dict, tuple[str, ...]]:
+    """(name -> size of the box bodies, names of the compound bodies) of ``scene.bodies`` (a
+    tuple of Body, or a name -> Body mapping)."""
     bodies = scene.bodies
-    items = bodies.values() if isinstance(bodies, dict) else bodies
-    return {str(b.name): b.size for b in items}
+    items = list(bodies.values() if isinstance(bodies, dict) else bodies)
+    compound = tuple(sorted(str(b.name) for b in items if getattr(b, "is_compound", False)))
+    return {str(b.name): b.size for b in items if str(b.name) not in compound}, compound
 
 
 def view_of(scene) -> SceneView:
     """A :class:`SceneView` of a ``impactnet.models.scenes.Scene``."""
-    bodies = _bodies_of(scene)
+    bodies, compound = _bodies_of(scene)
     names = tuple(sorted(bodies))
     sizes = np.array([np.asarray(bodies[n], dtype=np.float64).reshape(3) for n in names],
                      dtype=np.float64).reshape(-1, 3)
     pairs = tuple((str(p.a), str(p.b)) for p in scene.pairs)
     return SceneView(name=str(scene.name), hash=str(scene.hash()), object_names=names,
-                     sizes=sizes, pairs=pairs)
+                     sizes=sizes, pairs=pairs, compound_names=compound)
 
 
 def load_scene_view(name_or_path: str | None) -> SceneView:

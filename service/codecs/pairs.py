@@ -42,6 +42,11 @@ def rotation_reason(exc: InvalidRotationError) -> str:
 
 
 def unknown_object_reason(names, scene: SceneView) -> str:
+    compound = [str(n) for n in names if str(n) in scene.compound_names]
+    if compound:
+        return (f"{compound[0]!r} is a compound body (made of parts): the HTTP API does not "
+                "serve compound bodies yet (issue #20); the library does: "
+                "impactnet.models.compound.compound_answer")
     if scene.name is None:
         return "no scene is loaded, so objects cannot be named; give `size` instead"
     shown = ", ".join(repr(str(n)) for n in list(names)[:5])
