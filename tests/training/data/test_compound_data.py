@@ -45,3 +45,26 @@ def test_the_same_seed_gives_the_same_rows():
     second = compound_rows(parts_a, parts_b, 20, DEPTHS_M, np.random.default_rng(9))
     for name, column in first.items():
         np.testing.assert_array_equal(column, second[name], err_msg=name)
+
+
+def test_datagen_writes_the_compound_dataset_of_a_scene(tmp_path, capsys):
+    import argparse
+    import json
+
+    from impactnet.training.data import cli
+
+    scene = tmp_path / "stack.toml"
+    scene.write_text('[scene]\nname = "stack"\ndepth_fraction = [0.0, 0.001]\n[accuracy]\n'
+                     'normal_deg = 1.0\npoint_fraction = 0.02\n[bodies.box40]\n'
+                     'generator = "container"\nkind = "40ft"\ndetail = 1\n'
+                     '[[pairs]]\na = "box40"\nb = "box40"\n')
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    args = parser.parse_args(["--scene", str(scene), "--n-per-pair", "12", "--out",
+                              str(tmp_path / "data"), "--no-progress"])
+    assert cli.run(args) == cli.EXIT_OK
+    manifest = json.loads((tmp_path / "data" / "stack.compound.json").read_text())
+    assert manifest["pairs"][0]["rows"] >= 10
+    with np.load(tmp_path / "data" / "stack.compound.npz") as data:
+        assert data["pair0.contact_offsets"][-1] == manifest["pairs"][0]["part_contacts"]
+    assert "box40/box40" in capsys.readouterr().out
