@@ -9,6 +9,7 @@ says so.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -28,10 +29,13 @@ class SceneView:
     object_names: tuple[str, ...] = ()  # sorted body names
     sizes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (k, 3) metres
     pairs: tuple[tuple[str, str], ...] = ()  # (a, b) names of the pairs that can collide
-    compound_names: tuple[str, ...] = ()  # bodies made of parts: not served as boxes
+    compound_names: tuple[str, ...] = ()  # bodies made of parts (sorted)
+    compound_parts: dict = field(default_factory=dict)  # name -> parts of a compound body
+    compound_sizes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # envelopes
 
     def __post_init__(self) -> None:
         self.sizes.setflags(write=False)
+        self.compound_sizes.setflags(write=False)
         object.__setattr__(self, "_index", {n: i for i, n in enumerate(self.object_names)})
 
     def size_of(self, name: str) -> list[float] | None:
@@ -54,6 +58,26 @@ class SceneView:
         index = table[inverse.reshape(-1)]
         return index, np.flatnonzero(index < 0)
 
+    @cached_property
+    def with_compound(self) -> SceneView:
+        """The same scene with its compound bodies as objects too (their envelopes as sizes),
+        for parsing a request that names them; a compound object's index is at or past
+        ``len(self.object_names)``."""
+        if not self.compound_names:
+            return self
+        return SceneView(self.name, self.hash, self.object_names + self.compound_names,
+                         np.concatenate([self.sizes, self.compound_sizes]), self.pairs)
+
+    def parts_of(self, index: int, size) -> tuple:
+        """The parts of object ``index`` of :meth:`with_compound` (a box object or a raw
+        ``size``: one box part)."""
+        from impactnet.models.compound.parts import BoxPart
+
+        box_count = len(self.object_names)
+        if index >= box_count:
+            return self.compound_parts[self.compound_names[index - box_count]]
+        return (BoxPart("box", tuple(float(v) for v in size)),)
+
     def describe(self) -> dict:
         return {
             "name": self.name,
@@ -67,12 +91,12 @@ class SceneView:
 EMPTY_SCENE = SceneView(name=None, hash=None)
 
 
-def _bodies_of(scene) -> tuple[dict, tuple[str, ...]]:
-    """(name -> size of the box bodies, names of the compound bodies) of ``scene.bodies`` (a
-    tuple of Body, or a name -> Body mapping)."""
+def _bodies_of(scene) -> tuple[dict, dict]:
+    """(name -> size of the box bodies, name -> body of the compound bodies) of
+    ``scene.bodies`` (a tuple of Body, or a name -> Body mapping)."""
     bodies = scene.bodies
     items = list(bodies.values() if isinstance(bodies, dict) else bodies)
-    compound = tuple(sorted(str(b.name) for b in items if getattr(b, "is_compound", False)))
+    compound = {str(b.name): b for b in items if getattr(b, "is_compound", False)}
     return {str(b.name): b.size for b in items if str(b.name) not in compound}, compound
 
 
@@ -83,8 +107,12 @@ def view_of(scene) -> SceneView:
     sizes = np.array([np.asarray(bodies[n], dtype=np.float64).reshape(3) for n in names],
                      dtype=np.float64).reshape(-1, 3)
     pairs = tuple((str(p.a), str(p.b)) for p in scene.pairs)
+    compound_names = tuple(sorted(compound))
     return SceneView(name=str(scene.name), hash=str(scene.hash()), object_names=names,
-                     sizes=sizes, pairs=pairs, compound_names=compound)
+                     sizes=sizes, pairs=pairs, compound_names=compound_names,
+                     compound_parts={n: compound[n].parts for n in compound_names},
+                     compound_sizes=np.array([compound[n].size for n in compound_names],
+                                             np.float64).reshape(-1, 3))
 
 
 def load_scene_view(name_or_path: str | None) -> SceneView:

@@ -63,6 +63,12 @@ class Settings(BaseSettings):
     memory_wait_s: float = Field(2.0, ge=0)
     # Largest number of pairs in one batch request (413 beyond it).
     max_batch_pairs: int = Field(100_000, ge=1)
+    # Compound bodies: most part contacts one pose may answer with (413 beyond it). Two 40 ft
+    # containers at detail 2 stacked castings on castings give 40 (10 ring pieces x 4).
+    max_part_contacts_per_pose: int = Field(256, ge=1)
+    # Compound bodies: most part contacts one request may answer with (413 beyond it); each
+    # costs ~150 bytes of answer in npz, ~400 in JSON.
+    max_part_contacts_per_batch: int = Field(2_000_000, ge=1)
     # Largest number of /v1 requests being computed at once (from the moment their body has
     # arrived to the start of their answer); more get 503 with Retry-After. Requests still
     # uploading their body, probes (/healthz, /readyz) and /metrics are not counted.

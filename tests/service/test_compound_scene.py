@@ -1,29 +1,89 @@
-"""A scene with compound bodies is served (exact mode), and its compound objects are refused
-by the box endpoints with a 422 that names the field and says why."""
-from tests.service.conftest import assert_error, pair
+"""Compound bodies through the HTTP API: the detailed scene is served; a pair or a batch that
+names a compound object is answered by the exact compound oracle with the body-level summary
+and the part contacts (ragged in batches, JSON and npz); the caps refuse with a 413."""
+import io
+
+import numpy as np
+import pytest
+
+from impactnet.models.compound import compound_answer
+from impactnet.models.scenes import load_scene
+from tests.service.conftest import assert_error
 
 IDENTITY = [1.0, 0.0, 0.0, 0.0]
+HEIGHT = 2.591
+#: Spreader frame's centre above a 40 ft container's centre with the heads in the apertures,
+#: nudged 4.5 mm across: each head touches its aperture's flat by 0.75 mm.
+SPREADER_AT = [0.0, 0.0045, HEIGHT / 2 + 0.4 + 0.005]
+STACKED_AT = [0.01, 0.0, HEIGHT - 0.001]
 
 
-def test_the_detailed_scene_serves_and_lists_its_compound_objects(make_client):
-    client = make_client(scene="quay_crane_detail")
-    assert client.get("/readyz").status_code == 200
-    scene = client.get("/v1/models").json()["scene"]
+@pytest.fixture
+def detail(make_client):
+    return make_client(scene="quay_crane_detail")
+
+
+def _body(name, position):
+    return {"object": name, "position": position, "quaternion": IDENTITY}
+
+
+def test_the_detailed_scene_serves_and_lists_its_compound_objects(detail):
+    assert detail.get("/readyz").status_code == 200
+    scene = detail.get("/v1/models").json()["scene"]
     assert "container40" in scene["compound_objects"] and scene["objects"] == {}
 
 
-def test_naming_a_compound_object_in_a_pair_is_a_422_naming_the_field(make_client):
-    client = make_client(scene="quay_crane_detail")
-    body = pair()
-    body["b"] = {"object": "spreader", "position": [0, 0, 2.0], "quaternion": IDENTITY}
-    answer = assert_error(client.post("/v1/contact", json=body), 422, field="b.object")
-    assert "compound body" in answer["message"]
+@pytest.mark.parametrize("mode", ["exact", "single"])
+def test_a_compound_pair_is_answered_by_the_oracle_with_its_part_contacts(detail, mode):
+    answer = detail.post("/v1/contact", json={
+        "a": _body("container40", [0, 0, 0]), "b": _body("container40", STACKED_AT),
+        "mode": mode}).json()
+    assert answer["predictor"] == "oracle" and answer["mode"] == mode
+    parts = load_scene("quay_crane_detail").body("container40").parts
+    reference = compound_answer(parts, [0, 0, 0], IDENTITY, parts, STACKED_AT, IDENTITY)
+    np.testing.assert_allclose(answer["depth"], reference.summary.depth[0], rtol=1e-12)
+    np.testing.assert_allclose(answer["point"], reference.summary.point[0], atol=1e-12)
+    assert len(answer["contacts"]) == 40
+    first = answer["contacts"][0]
+    assert first["part_a"].startswith("casting_top_") and first["contact_type"] == "face-face"
+    assert set(first) == {"part_a", "part_b", "point", "normal", "depth", "contact_type",
+                          "feature_a", "feature_b", "pressure"}
 
 
-def test_naming_a_compound_object_in_a_batch_is_a_422_naming_the_column(make_client):
-    client = make_client(scene="quay_crane_detail")
-    batch = {"a_object": ["container40", "container40"], "a_position": [0, 0, 0],
-             "a_quaternion": IDENTITY, "b_size": [1.0, 1.0, 1.0], "b_position": [0, 0, 2.0],
-             "b_quaternion": IDENTITY}
-    answer = assert_error(client.post("/v1/contact/batch", json=batch), 422, field="a_object")
-    assert "compound body" in answer["message"]
+def _batch():
+    return {"a_object": "container40", "a_position": [0, 0, 0], "a_quaternion": IDENTITY,
+            "b_object": ["container40", "spreader", "spreader"],
+            "b_position": [STACKED_AT, SPREADER_AT, [0, 0, HEIGHT / 2 + 0.405]],
+            "b_quaternion": IDENTITY}
+
+
+def test_a_batch_answers_the_ragged_layout_in_json_and_npz_alike(detail):
+    as_json = detail.post("/v1/contact/batch", json=_batch()).json()
+    contacts = as_json["contacts"]
+    assert as_json["n"] == 3 and contacts["offsets"] == [0, 40, 44, 44]
+    assert contacts["part_b"][40:] == ["head_fl", "head_fr", "head_al", "head_ar"]
+    assert as_json["colliding"] == [True, True, False]
+    binary = detail.post("/v1/contact/batch", json=_batch(),
+                         headers={"accept": "application/x-npz"})
+    with np.load(io.BytesIO(binary.content), allow_pickle=False) as npz:
+        np.testing.assert_array_equal(npz["contact_offsets"], contacts["offsets"])
+        np.testing.assert_array_equal(npz["contact_depth"], contacts["depth"])
+        assert npz["contact_part_b"].tolist() == contacts["part_b"]
+        assert npz["contact_type"].tolist() == contacts["contact_type"]
+
+
+def test_part_contacts_over_the_caps_are_413_naming_the_cap(make_client):
+    per_pose = make_client(scene="quay_crane_detail", max_part_contacts_per_pose=39)
+    answer = assert_error(per_pose.post("/v1/contact", json={
+        "a": _body("container40", [0, 0, 0]), "b": _body("container40", STACKED_AT)}), 413,
+        error="too_many_part_contacts")
+    assert "max_part_contacts_per_pose" in answer["message"]
+    per_batch = make_client(scene="quay_crane_detail", max_part_contacts_per_batch=43)
+    answer = assert_error(per_batch.post("/v1/contact/batch", json=_batch()), 413,
+                          error="too_many_part_contacts")
+    assert "max_part_contacts_per_batch" in answer["message"]
+
+
+def test_an_unknown_object_in_the_detailed_scene_is_still_a_422(detail):
+    body = {"a": _body("container45", [0, 0, 0]), "b": _body("container40", STACKED_AT)}
+    assert_error(detail.post("/v1/contact", json=body), 422, field="a.object")

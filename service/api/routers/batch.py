@@ -6,6 +6,7 @@ import contextvars
 from typing import Annotated
 
 import numpy as np
+import orjson
 from fastapi import APIRouter, Query, Request
 from pydantic import ValidationError
 from starlette.responses import Response
@@ -31,6 +32,13 @@ from impactnet.service.codecs.answer_encode import (
 )
 from impactnet.service.codecs.batch_json import parse_json_batch
 from impactnet.service.codecs.npz import parse_npz
+from impactnet.service.compound_solve import (
+    ORACLE,
+    batch_json,
+    batch_npz,
+    names_compound,
+    solve_compound,
+)
 from impactnet.service.limits.body import LEASE
 from impactnet.service.limits.budget import Lease
 from impactnet.service.predictors import ServingState
@@ -52,6 +60,15 @@ options go in the query string (`?mode=exact&include=manifold`). Answer members:
 `mode` and `model_version` (0-d `<U`); with include=manifold `manifold_count` int8 (N,),
 `manifold_points` `<f8` (N, 8, 3), `manifold_depths` `<f8` (N, 8); with include=paper_angles
 `paper_angles` `<f8` (N, 4), NaN rows where there is no contact.
+
+**Compound bodies.** Rows that name a compound scene object are answered by the exact compound
+oracle (every mode; `predictor` is `oracle`): summary columns `colliding`, `point`, `normal`,
+`depth`, `cluster_size` of N, and the part contacts in a ragged layout: JSON `contacts` =
+{`offsets` (N + 1), `part_a`, `part_b`, `point`, `normal`, `depth`, `contact_type`,
+`feature_a`, `feature_b`, `pressure`}, row i's contacts at `offsets[i]:offsets[i+1]`; npz
+members `contact_offsets` and `contact_<name>` (`contact_type` for the type). Caps:
+`max_part_contacts_per_pose`, `max_part_contacts_per_batch` (413 `too_many_part_contacts`
+naming the cap).
 """
 
 _REQUEST_BODY = {
@@ -114,13 +131,19 @@ def _score(body: bytes, binary_in: bool, answer_type: str, query: dict, state: S
         columns, body_options = parse_json_batch(body, settings.max_batch_pairs, lease)
     options = _options(query, body_options)
     mode = options.mode or state.default_mode
-    predictor = state.predictor(mode)
     lease.reserve(min(_rows(columns), settings.max_batch_pairs) * PAIR_INPUT_BYTES,
                   "validating the batch")
-    pairs = col.batch_pairs(columns, state.scene, options.euler_convention,
+    pairs = col.batch_pairs(columns, state.scene.with_compound, options.euler_convention,
                             settings.max_batch_pairs)
     del columns
-    arrays = solve_batch(predictor, pairs, options.include, lease)
+    if names_compound(pairs, state.scene):  # exact-only: the oracle answers in every mode
+        arrays = solve_compound(pairs, state.scene, settings.max_part_contacts_per_pose,
+                                settings.max_part_contacts_per_batch)
+        runtime.metrics.record_predictions(mode, {ORACLE: len(pairs)})
+        if answer_type == col.NPZ:
+            return batch_npz(arrays, mode, state.model_version), mode
+        return orjson.dumps(batch_json(arrays, mode, state.model_version)), mode
+    arrays = solve_batch(state.predictor(mode), pairs, options.include, lease)
     counts = np.bincount(arrays["predictor_code"], minlength=len(arrays["predictor_names"]))
     runtime.metrics.record_predictions(mode, dict(zip(arrays["predictor_names"].tolist(),
                                                       counts.tolist(), strict=True)))
