@@ -10,6 +10,9 @@
         c["point"], c["normal"], c["depth"], c["contact_type"]
         out = client.batch({"a_object": "container40", "a_position": positions_a, ...})
         out["point"]  # (N, 3) float64
+        # compound scene objects: summary columns, and the part contacts of each row
+        out = client.batch({"a_object": "container40", "b_object": "spreader", ...})
+        contacts_of(out, 0)["part_b"]  # e.g. ['head_fl', 'head_fr']
 
 Dependencies: the standard library and NumPy (orjson, when installed, for speed).
 Not thread-safe: one client per thread (a connection carries one request at a time).
@@ -162,6 +165,9 @@ class ImpactClient:
         angles when included), and the scalars ``mode``, ``model_version``.
 
         ``binary=True`` sends and receives npz (float64, no JSON round trip); False uses JSON.
+        A batch that names compound objects returns the summary columns (``colliding, point,
+        normal, depth, cluster_size, predictor``) and ``contacts`` (ragged part contacts,
+        ``offsets`` (N + 1,); :func:`contacts_of` gives one row's) in both encodings.
         """
         options = {"mode": mode, "include": list(include) or None,
                    "euler_convention": euler_convention}
@@ -176,6 +182,8 @@ class ImpactClient:
             self._check(status, headers, data)
             with np.load(io.BytesIO(data), allow_pickle=False) as npz:
                 raw = {k: npz[k] for k in npz.files}
+            if "contact_offsets" in raw:
+                return _compound(raw)
             out = {k: v for k, v in raw.items() if not k.endswith(("_code", "_names"))
                    and k not in ("mode", "model_version")}
             out["contact_type_code"] = raw["contact_type_code"]
@@ -184,6 +192,11 @@ class ImpactClient:
             out["mode"], out["model_version"] = str(raw["mode"]), str(raw["model_version"])
             return out
         body = self._json("POST", "/v1/contact/batch", dict(columns) | options)
+        if "contacts" in body:
+            ragged = body.pop("contacts")
+            return _compound({**body, **{("contact_offsets" if k == "offsets" else
+                                          k if k.startswith("contact_") else f"contact_{k}"): v
+                                         for k, v in ragged.items()}})
         out = {}
         for key, value in body.items():
             if key in ("mode", "model_version", "n"):
@@ -196,6 +209,25 @@ class ImpactClient:
         codes = np.array([CONTACT_TYPES.index(str(u)) for u in unique], dtype=np.int8)
         out["contact_type_code"] = codes[inverse.reshape(-1)]
         return out
+
+
+def _compound(raw: dict) -> dict:
+    """A compound batch answer: the summary columns as arrays (N rows), and ``contacts``, the
+    ragged part contacts as arrays with ``offsets`` (N + 1,); :func:`contacts_of` splits them
+    per row."""
+    out = {k: (str(v) if k in ("mode", "model_version") else v if k == "n" else np.asarray(v))
+           for k, v in raw.items() if not k.startswith("contact_")}
+    out["contacts"] = {("offsets" if k == "contact_offsets" else k.removeprefix("contact_")
+                        if k != "contact_type" else k): np.asarray(v)
+                       for k, v in raw.items() if k.startswith("contact_")}
+    return out
+
+
+def contacts_of(answer: dict, i: int) -> dict[str, np.ndarray]:
+    """The part contacts of row ``i`` of a compound batch answer (columns of its rows)."""
+    contacts = answer["contacts"]
+    start, stop = int(contacts["offsets"][i]), int(contacts["offsets"][i + 1])
+    return {k: v[start:stop] for k, v in contacts.items() if k != "offsets"}
 
 
 def _dumps(payload) -> bytes:
