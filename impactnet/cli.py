@@ -123,6 +123,8 @@ _DELEGATED = {
               "SQLite or PostgreSQL storage, resumable by name)"),
     "reproduce-paper": ("impactnet.training.paper.cli",
                         "reproduce the paper's Tables 1 and 2 and Figures 5 and 6"),
+    "show": ("impactnet.training.show.cli",
+             "draw one contact pose of a scene's pair with its part contacts (PNG and GLB)"),
 }
 
 
