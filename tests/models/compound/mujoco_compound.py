@@ -1,25 +1,33 @@
-"""Test helper: MuJoCo 4's collider on two compound bodies, one box geom per part.
+"""Test helper: MuJoCo 4's collider on two compound bodies, one geom per part.
 
-Not a test module. Each body is a free MuJoCo body holding one box geom per part (half-extents,
-at the part's centre; margins 0); MuJoCo never collides geoms of the same body, as the oracle
-never pairs parts of one body. Per pose the two free joints' ``qpos`` are set, then
-``mj_kinematics`` and ``mj_collision`` run; the contacts are grouped by geom pair: per part
-pair the deepest depth (``-dist``) and the normal (``frame[0:3]``, from the first geom to the
-second, flipped where MuJoCo put B's geom first). MuJoCo knows nothing of parts that overlap
-within a body, so a pair whose touched surface one body covers with other parts (each contact
-position moved half its depth back onto that body's part, all inside its other parts) is left
-out: the oracle's documented filter, applied to MuJoCo's own contacts. Conventions as in
-``impactnet.training.bench.mujoco_reference`` (which the model tests may not import).
+Not a test module. Each body is a free MuJoCo body holding one geom per part: a box geom (half-
+extents, at the part's centre) for a box part, a mesh geom of the hull's vertices (in the
+body's frame; MuJoCo collides the hull) for a convex part; margins 0; MuJoCo never collides
+geoms of the same body, as the oracle never pairs parts of one body. Per pose the two free
+joints' ``qpos`` are set, then ``mj_kinematics`` and ``mj_collision`` run; the contacts are
+grouped by geom pair: per part pair the deepest depth (``-dist``) and the normal
+(``frame[0:3]``, from the first geom to the second, flipped where MuJoCo put B's geom first).
+MuJoCo knows nothing of parts that overlap within a body, so a pair whose touched surface one
+body covers with other parts (each contact position moved half its depth back onto that body's
+part, all inside its other parts) is left out: the oracle's documented filter, applied to
+MuJoCo's own contacts. Conventions as in ``impactnet.training.bench.mujoco_reference`` (which
+the model tests may not import).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from impactnet.models.compound.hull import hull_of
+from impactnet.models.compound.parts import BoxPart
 from impactnet.models.geometry.rotations import quaternion_to_matrix
 
 _BODY = '<body name="{name}"><freejoint/>{geoms}</body>'
 _GEOM = ('<geom name="{body}{k}" type="box" size="{half}" pos="{pos}" margin="0" gap="0" '
          'contype="1" conaffinity="1"/>')
+_MESH_GEOM = ('<geom name="{body}{k}" type="mesh" mesh="{body}m{k}" margin="0" gap="0" '
+              'contype="1" conaffinity="1"/>')
+_MESH = '<mesh name="{body}m{k}" vertex="{vertex}"/>'
+
 
 
 def _floats(values) -> str:
@@ -29,12 +37,20 @@ def _floats(values) -> str:
 def _model(parts_a, parts_b):
     import mujoco
 
-    bodies = []
+    bodies, meshes = [], []
     for name, parts in (("a", parts_a), ("b", parts_b)):
-        geoms = "".join(_GEOM.format(body=name, k=k, half=_floats(0.5 * np.asarray(p.size)),
-                                     pos=_floats(p.centre)) for k, p in enumerate(parts))
-        bodies.append(_BODY.format(name=name, geoms=geoms))
-    xml = ('<mujoco><option gravity="0 0 0"/><worldbody>' + "".join(bodies)
+        geoms = []
+        for k, p in enumerate(parts):
+            if isinstance(p, BoxPart):
+                geoms.append(_GEOM.format(body=name, k=k, half=_floats(0.5 * np.asarray(p.size)),
+                                          pos=_floats(p.centre)))
+            else:
+                meshes.append(_MESH.format(body=name, k=k,
+                                           vertex=_floats(hull_of(p).vertices.ravel())))
+                geoms.append(_MESH_GEOM.format(body=name, k=k))
+        bodies.append(_BODY.format(name=name, geoms="".join(geoms)))
+    xml = ('<mujoco><option gravity="0 0 0" ccd_tolerance="1e-12" ccd_iterations="2000"/>'
+           '<asset>' + "".join(meshes) + '</asset><worldbody>' + "".join(bodies)
            + "</worldbody></mujoco>")
     model = mujoco.MjModel.from_xml_string(xml)
     return model, mujoco.MjData(model)
@@ -85,7 +101,9 @@ def _covered_in(point, own, parts, rot, position, margin_rel=1e-9) -> bool:
     """Whether ``point`` (world) lies strictly inside a part of the body other than ``own``."""
     local = rot.T @ (point - position)
     for k, part in enumerate(parts):
-        half = 0.5 * np.asarray(part.size) - margin_rel * min(part.size)
-        if k != own and (np.abs(local - np.asarray(part.centre)) < half).all():
+        hull = hull_of(part)
+        extent = np.ptp(hull.vertices, axis=0).min()
+        if k != own and (hull.face_normals @ local - hull.face_offsets
+                         < -margin_rel * extent).all():
             return True
     return False
