@@ -71,6 +71,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                             "N = 1 time is measured next to this one's, alternately")
 
 
+    compound = sub.add_parser(
+        "compound", help="the compound oracle's cost against detail next to FCL mesh-mesh, "
+                         "FCL Convex and MuJoCo, with their errors",
+        description="Castings, apertures and twistlock heads of 8-256 sides: the compound "
+                    "oracle (batch and N = 1) next to python-fcl mesh-mesh, python-fcl Convex "
+                    "and MuJoCo on the same first-contact poses, with their errors against it.")
+    compound.add_argument("--quick", action="store_true", help="a tenth of the poses")
+    compound.add_argument("--out", metavar="DIR", help="write compound.md and "
+                          "compound_cost_vs_detail.png there (e.g. docs/benchmarks)")
+    compound.add_argument("--seed", type=int, default=1, help="pose seed (default 1)")
+
+
 def _pin_single_thread() -> None:
     if not pin_single_thread():  # numpy came first: too late for BLAS to see it
         print("impactnet bench: warning: numpy was imported before the thread count was "
@@ -80,6 +92,13 @@ def _pin_single_thread() -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark (or ``bench exact``); 0 on success."""
     _pin_single_thread()
+    if getattr(args, "bench_command", None) == "compound":
+        from impactnet.training.bench.compound_detail import run as run_compound
+
+        _pin_single_thread()
+        command = "impactnet bench compound" + (" --quick" if args.quick else "") + (
+            f" --out {args.out}" if args.out else "")
+        return run_compound(quick=args.quick, out=args.out, seed=args.seed, command=command)
     if getattr(args, "bench_command", None) == "exact":
         from impactnet.training.bench.exact import run as run_exact
 

@@ -1,0 +1,54 @@
+"""MuJoCo 4 model of two compound bodies for the benchmark: one free body each, one geom per
+part (a box geom for a box part, a mesh geom of the hull's vertices for a convex part), margins
+0; contacts grouped by part pair, the deepest kept, normals from A's part towards B's. (The
+tests have their own copy with the covered-surface filter, tests/models/compound/
+mujoco_compound.py: models tests may not import training.)"""
+from __future__ import annotations
+
+import numpy as np
+
+from impactnet.models.compound.hull import hull_of
+from impactnet.models.compound.parts import BoxPart
+
+
+def _floats(values) -> str:
+    return " ".join(repr(float(v)) for v in values)
+
+
+def mujoco_model(parts_a, parts_b):
+    """(MjModel, MjData) of A (qpos 0-6) and B (qpos 7-13), free bodies."""
+    import mujoco
+
+    bodies, meshes = [], []
+    for name, parts in (("a", parts_a), ("b", parts_b)):
+        geoms = []
+        for k, part in enumerate(parts):
+            common = f'name="{name}{k}" margin="0" gap="0" contype="1" conaffinity="1"'
+            if isinstance(part, BoxPart):
+                geoms.append(f'<geom {common} type="box" size="'
+                             f'{_floats(0.5 * np.asarray(part.size))}" pos="'
+                             f'{_floats(part.centre)}"/>')
+            else:
+                meshes.append(f'<mesh name="{name}m{k}" vertex="'
+                              f'{_floats(hull_of(part).vertices.ravel())}"/>')
+                geoms.append(f'<geom {common} type="mesh" mesh="{name}m{k}"/>')
+        bodies.append(f'<body name="{name}"><freejoint/>{"".join(geoms)}</body>')
+    xml = ('<mujoco><option gravity="0 0 0"/><asset>' + "".join(meshes) + "</asset><worldbody>"
+           + "".join(bodies) + "</worldbody></mujoco>")
+    model = mujoco.MjModel.from_xml_string(xml)
+    return model, mujoco.MjData(model)
+
+
+def part_pairs(data, count_a: int) -> dict:
+    """``{(part_a, part_b): (depth, normal (3,))}`` of the current contacts, deepest per pair."""
+    pairs: dict = {}
+    for c in range(int(data.ncon)):
+        contact = data.contact[c]
+        g1, g2 = int(contact.geom[0]), int(contact.geom[1])
+        normal = np.array(contact.frame[0:3])
+        if g1 >= count_a:
+            g1, g2, normal = g2, g1, -normal
+        key, depth = (g1, g2 - count_a), -float(contact.dist)
+        if key not in pairs or depth > pairs[key][0]:
+            pairs[key] = (depth, normal)
+    return pairs
