@@ -57,3 +57,23 @@ def test_poses_without_contact_summarise_to_nothing():
     s = summarise(found)
     np.testing.assert_array_equal(s.colliding, [False, True])
     assert not s.normal[0].any() and s.depth[0] == 0.0
+
+
+def test_a_turned_twistlock_presses_both_flats_and_the_summary_flips_with_the_deeper_side():
+    """A twistlock head turned 10 degrees in its aperture reaches across both flats (its caps
+    at 24 sin 10 deg + 28 = 32.2 mm from the axis, the flats at 31.75): two opposed contacts.
+    Moved 0.1 mm across, one side is deeper; the summary follows it and flips sign."""
+    head = validate_parts("twistlock", [cb.twistlock_head((0.0, 0.0), 0.0, 32, "head")])
+    box = cb.container("40ft", detail=2)
+    centre = cb.aperture_centres("40ft")[0]  # the front-left (+x, +y) aperture
+    yaw = np.radians(10.0)
+    q = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+    shifts = np.array([-1e-4, 1e-4])
+    position = np.c_[np.full(2, centre[0]), centre[1] + shifts, np.full(2, HEIGHT / 2 - 0.005)]
+    found = compound_contacts(box, np.zeros(3), IDENTITY, head, position, q)
+    s = summarise(found)
+    for pose in range(2):
+        normals = found.contacts.normal[found.of_pose(pose)]
+        assert normals[:, 1].max() > 0.9 and normals[:, 1].min() < -0.9  # both flats
+    # the head moved towards -y presses the -y flat harder: pushed back along +y, and v.v.
+    assert s.normal[0, 1] > 0.9 and s.normal[1, 1] < -0.9
