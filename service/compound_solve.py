@@ -54,8 +54,7 @@ def solve_compound(pairs: PairInputs, scene: SceneView, max_per_pose: int,
     n = len(pairs)
     keys, inverse = _groups(pairs, n)
     inverse = inverse.reshape(-1)
-    out = {"colliding": np.zeros(n, bool), "point": np.zeros((n, 3)), "normal": np.zeros((n, 3)),
-           "depth": np.zeros(n), "cluster_size": np.zeros(n, np.int64)}
+    out = _empty(n)
     pieces, total = [], 0
     for g, key in enumerate(keys):
         rows = np.flatnonzero(inverse == g)
@@ -64,17 +63,39 @@ def solve_compound(pairs: PairInputs, scene: SceneView, max_per_pose: int,
         take = [np.broadcast_to(c, (n,) + c.shape[1:])[rows] for c in
                 (pairs.position_a, pairs.quaternion_a, pairs.position_b, pairs.quaternion_b)]
         answer = compound_answer(parts_a, take[0], take[1], parts_b, take[2], take[3])
-        counts = np.diff(answer.parts.offsets)
-        total += int(counts.sum())
-        _check_caps(counts, total, rows, max_per_pose, max_per_batch)
-        s = answer.summary
-        out["colliding"][rows], out["point"][rows], out["normal"][rows] = (s.colliding, s.point,
-                                                                          s.normal)
-        out["depth"][rows], out["cluster_size"][rows] = s.depth, s.cluster_size
-        pieces.append(_contact_columns(answer, rows))
+        total += int(answer.parts.offsets[-1])
+        pieces.append(_fill(out, answer, rows, total, max_per_pose, max_per_batch))
     out |= _ragged(pieces, n)
     out["predictor"] = np.full(n, ORACLE)
     return out
+
+
+def _fill(out: dict, answer, rows, total: int, max_per_pose: int, max_per_batch: int) -> dict:
+    """Put a group's summary into ``out`` at ``rows``; its contact columns (caps checked)."""
+    _check_caps(np.diff(answer.parts.offsets), total, rows, max_per_pose, max_per_batch)
+    s = answer.summary
+    out["colliding"][rows], out["point"][rows], out["normal"][rows] = (s.colliding, s.point,
+                                                                      s.normal)
+    out["depth"][rows], out["cluster_size"][rows] = s.depth, s.cluster_size
+    return _contact_columns(answer, rows)
+
+
+def _empty(n: int) -> dict:
+    return {"colliding": np.zeros(n, bool), "point": np.zeros((n, 3)),
+            "normal": np.zeros((n, 3)), "depth": np.zeros(n),
+            "cluster_size": np.zeros(n, np.int64)}
+
+
+def solve_parts(parts_a, position_a, quaternion_a, parts_b, position_b, quaternion_b,
+                max_per_pose: int) -> dict:
+    """The answer arrays (one row) of one pair of part tuples, as :func:`solve_compound`'s."""
+    answer = compound_answer(parts_a, position_a, quaternion_a, parts_b, position_b,
+                             quaternion_b)
+    out = _empty(1)
+    rows = np.zeros(1, np.int64)
+    piece = _fill(out, answer, rows, int(answer.parts.offsets[-1]), max_per_pose,
+                  max_per_pose)
+    return out | _ragged([piece], 1) | {"predictor": np.full(1, ORACLE)}
 
 
 def _check_caps(counts, total, rows, max_per_pose, max_per_batch) -> None:

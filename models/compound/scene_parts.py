@@ -115,8 +115,10 @@ def _part(entry, path: str, source: str):
                                       for k, p in enumerate(value)))
     if shape == "frustum":
         return _frustum(name, value, where, source)
-    from impactnet.models.compound.meshes import mesh_part
+    from impactnet.models.compound.meshes import inline_mesh_part, mesh_part
 
+    if isinstance(value, Mapping):  # inline in a request: {format, data (base64)}
+        return inline_mesh_part(name, dict(value), where, source)
     return mesh_part(name, Path(source).parent / sf.text(value, where, source), where, source)
 
 

@@ -45,7 +45,8 @@ class ServiceError(StarletteHTTPException):
 def item(field: str, reason: str, type_: str = "value_error", rows=None, loc=None) -> dict:
     """One entry of an error's ``detail`` list."""
     out = {"field": field, "reason": reason, "type": type_,
-           "loc": list(loc) if loc is not None else field.replace("[", ".").split(".")}
+           "loc": list(loc) if loc is not None else [p for p in field.replace("]", "").replace(
+               "[", ".").split(".") if p]}
     if rows is not None:
         out["rows"] = [int(r) for r in list(rows)[:20]]
     return out

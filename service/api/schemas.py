@@ -28,6 +28,8 @@ from impactnet.models.domain import (  # the solver's input domain
 ANGLE_MAX = 1e6
 #: Longest scene object name.
 OBJECT_NAME_MAX = 64
+#: Most parts of a compound body given inline in a request.
+MAX_INLINE_PARTS = 128
 
 Mode = Literal["exact", "single", "committee", "auto"]
 Include = Literal["manifold", "paper_angles"]
@@ -56,6 +58,11 @@ class Body(BaseModel):
 
     object: ObjectName | None = Field(None, description="Name of a body of the served scene "
                                       "(GET /v1/models lists them); instead of `size`.")
+    parts: Annotated[list[dict], Field(min_length=1, max_length=MAX_INLINE_PARTS)] | None = Field(
+        None, description="A compound body given inline (POST /v1/contact only), in the scene "
+        "files' part format: each `{name, box: {size, centre}}`, `{name, points: [[x, y, z], "
+        "...]}`, `{name, frustum: {sides, base, tip_scale, height, centre}}` or `{name, mesh: "
+        "{format: stl|obj|glb, data: <base64>}}`; instead of `size` / `object`.")
     size: Size3 | None = Field(None, description="Full edge lengths [lx, ly, lz], metres.")
     position: Vec3 = Field(description="Centre in the world frame, metres.")
     quaternion: Quaternion | None = Field(None, description="[w, x, y, z], normalised here.")
@@ -66,8 +73,8 @@ class Body(BaseModel):
 
     @model_validator(mode="after")
     def _exactly_one(self) -> Body:
-        if (self.object is None) == (self.size is None):
-            raise ValueError("give exactly one of `object` and `size`")
+        if sum(v is not None for v in (self.object, self.size, self.parts)) != 1:
+            raise ValueError("give exactly one of `object`, `size` and `parts`")
         given = [n for n in _ORIENTATIONS if getattr(self, n) is not None]
         if len(given) != 1:
             raise ValueError("give exactly one orientation of `quaternion`, `matrix`, "

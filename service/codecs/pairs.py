@@ -81,7 +81,9 @@ def euler_quaternion(euler: list[float], convention: str) -> list[float]:
     return [-v for v in q] if q[0] < 0.0 else q
 
 
-def _quaternion(body: Body, side: str, convention: str) -> list[float]:
+def quaternion_of(body: Body, side: str, convention: str) -> list[float]:
+    """The unit quaternion of a request body's one orientation (422 naming the field if it is
+    not a rotation)."""
     q = body.quaternion
     if q is not None:  # plain floats: the single-pair path avoids NumPy's per-call cost
         norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
@@ -102,8 +104,8 @@ def request_pair(request: ContactRequest, scene: SceneView) -> PairInputs:
     """The one pair of a validated request, as (1, .) float64 arrays."""
     a, b = request.a, request.b
     conv = request.euler_convention
-    rows = [_size(a, "a", scene), a.position, _quaternion(a, "a", conv),
-            _size(b, "b", scene), b.position, _quaternion(b, "b", conv)]
+    rows = [_size(a, "a", scene), a.position, quaternion_of(a, "a", conv),
+            _size(b, "b", scene), b.position, quaternion_of(b, "b", conv)]
     objects = [scene.index_of(body.object) for body in (a, b)]
     return PairInputs(*(np.array([r], dtype=np.float64) for r in rows),
                       np.array([objects[0]]), np.array([objects[1]]))

@@ -1,6 +1,7 @@
 """Compound bodies through the HTTP API: the detailed scene is served; a pair or a batch that
 names a compound object is answered by the exact compound oracle with the body-level summary
 and the part contacts (ragged in batches, JSON and npz); the caps refuse with a 413."""
+import base64
 import io
 
 import numpy as np
@@ -87,3 +88,37 @@ def test_part_contacts_over_the_caps_are_413_naming_the_cap(make_client):
 def test_an_unknown_object_in_the_detailed_scene_is_still_a_422(detail):
     body = {"a": _body("container45", [0, 0, 0]), "b": _body("container40", STACKED_AT)}
     assert_error(detail.post("/v1/contact", json=body), 422, field="a.object")
+
+
+def _inline_pair(parts):
+    return {"a": {"size": [2.0, 2.0, 2.0], "position": [0, 0, 0], "quaternion": IDENTITY},
+            "b": {"parts": parts, "position": [0, 0, 1.049], "quaternion": IDENTITY}}
+
+
+def test_a_compound_body_given_inline_is_answered_and_its_mesh_becomes_its_hull(client):
+    trimesh = pytest.importorskip("trimesh")
+    buffer = io.BytesIO()
+    trimesh.creation.box(extents=(0.3, 0.3, 0.1)).export(buffer, file_type="stl")
+    data = base64.b64encode(buffer.getvalue()).decode()
+    answer = client.post("/v1/contact", json=_inline_pair([
+        {"name": "block", "box": {"size": [0.2, 0.2, 0.3], "centre": [0, 0, 0.1]}},
+        {"name": "lid", "mesh": {"format": "stl", "data": data}}])).json()
+    assert answer["predictor"] == "oracle"
+    assert [c["part_b"] for c in answer["contacts"]] == ["lid"]
+    np.testing.assert_allclose(answer["depth"], 1e-3, atol=1e-7)  # the STL is float32
+
+
+@pytest.mark.parametrize("part, field, reason", [
+    ({"name": "x", "sphere": {"r": 1.0}}, "b.parts[1]", "unknown key"),
+    ({"name": "flat", "points": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]}, "b.parts[1]",
+     "flat"),
+    ({"name": "lid", "mesh": {"format": "stl", "data": "@@@"}}, "b.parts[1].mesh.data",
+     "base64"),
+    ({"name": "lid", "mesh": {"format": "stl", "data": base64.b64encode(b"no mesh").decode()}},
+     "b.parts[1].mesh", "fewer than 4 vertices"),  # trimesh reads junk as an empty mesh
+    ({"name": "inner", "box": {"size": [0.01, 0.01, 0.01]}}, "b.parts[1]", "inside"),
+])
+def test_a_bad_inline_part_is_a_422_naming_its_field(client, part, field, reason):
+    body = _inline_pair([{"name": "block", "box": {"size": [0.2, 0.2, 0.1]}}, part])
+    answer = assert_error(client.post("/v1/contact", json=body), 422, field=field)
+    assert reason in answer["message"]

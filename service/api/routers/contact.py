@@ -15,6 +15,7 @@ from impactnet.service.codecs.pairs import (
     predict_checked,
     request_pair,
 )
+from impactnet.service.compound_inline import inline_answer
 from impactnet.service.compound_solve import ORACLE, names_compound, row_json, solve_compound
 from impactnet.service.runtime import Runtime
 
@@ -59,7 +60,9 @@ async def contact(request: Request) -> Response:
     compound oracle in every mode (`predictor`: oracle): the body-level summary (`colliding`,
     `point`, `normal`, `depth`, `cluster_size`) and `contacts`, one entry per part contact
     (`part_a`, `part_b`, `point`, `normal`, `depth`, `contact_type`, `feature_a`,
-    `feature_b`, `pressure`), deepest first within the answer's order (docs/service.md).
+    `feature_b`, `pressure`), deepest first within the answer's order (docs/service.md). A
+    compound body may also be given inline as `parts` (the scene files' part format; a mesh
+    as `{format, data}` in base64): bad parts are 422 naming the field.
     """
     # Read here, not through Depends: FastAPI resolves dependencies per request (~25-50 us
     # for these two, measured in process), a tenth of this route's time; the other routes
@@ -73,6 +76,13 @@ async def contact(request: Request) -> Response:
     else:
         body = await run_in_threadpool(parse_body, raw, content_type)
     mode = body.mode or state.default_mode
+    if body.a.parts is not None or body.b.parts is not None:  # a compound body inline
+        answer = inline_answer(body, state.scene, runtime.settings.max_part_contacts_per_pose)
+        runtime.metrics.record_predictions(mode, {ORACLE: 1})
+        return Response(orjson.dumps(answer | {"mode": mode,
+                                               "model_version": state.model_version}),
+                        media_type="application/json",
+                        headers={"X-Model-Version": state.model_version})
     pairs = request_pair(body, state.scene.with_compound)
     if names_compound(pairs, state.scene):  # exact-only: the oracle answers in every mode
         arrays = solve_compound(pairs, state.scene, runtime.settings.max_part_contacts_per_pose,
