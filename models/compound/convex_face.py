@@ -32,7 +32,7 @@ import numpy as np
 from impactnet.models.box.manifold import SNAP_TOL_REL
 from impactnet.models.box.pressure import PRESSURE_FLOOR_REL, REGION_DEPTH_TOL_REL
 from impactnet.models.compound import polygon_clip as pc
-from impactnet.models.compound.convex_sat import cross, dot, rotate
+from impactnet.models.compound.convex_sat import dot, rotate
 from impactnet.models.compound.hull import Hull
 from impactnet.models.contacts import MAX_MANIFOLD_POINTS
 
@@ -53,41 +53,20 @@ class FaceRegion:
 
 def _plane_frames(ref: Hull, face: np.ndarray):
     """Per pose: normal n (m, 3), offset h (m,), origin o (m, 3), in-plane axes e_u, e_w."""
-    n, h = ref.face_normals[face], ref.face_offsets[face]
-    origin = ref.vertices[ref.face_loops[face, 0]]
-    e_u = ref.vertices[ref.face_loops[face, 1]] - origin
-    e_u = e_u / np.sqrt(dot(e_u, e_u))[:, None]
-    return n, h, origin, e_u, cross(n, e_u)
+    frames = ref.face_frames[face]
+    return (ref.face_normals[face], ref.face_offsets[face], frames[:, 0], frames[:, 1],
+            frames[:, 2])
 
 
-def _side_coefficients(ref: Hull, face: np.ndarray, origin, e_u, e_w, side: int):
-    """(m, 4) half-plane ``c . (u, w, p, 1) >= 0`` of side ``side`` of each reference face
-    (its edge from loop slot ``side`` to the next), normalised to metres; (0, 0, 0, 1) for a
-    face with fewer sides."""
-    loops, counts = ref.face_loops[face], ref.face_counts[face]
-    has = side < counts
-    start = ref.vertices[loops[:, min(side, loops.shape[1] - 1)]] - origin
-    end = ref.vertices[loops[np.arange(len(face)), np.where(side + 1 < counts, side + 1, 0)]]
-    end = end - origin
-    a = np.stack([dot(start, e_u), dot(start, e_w)], axis=1)
-    b = np.stack([dot(end, e_u), dot(end, e_w)], axis=1)
-    edge = b - a
-    length = np.sqrt(edge[:, 0] ** 2 + edge[:, 1] ** 2)
-    safe = np.where(has & (length > 0.0), length, 1.0)
-    coefficients = np.stack([-edge[:, 1], edge[:, 0], np.zeros(len(face)),
-                             edge[:, 1] * a[:, 0] - edge[:, 0] * a[:, 1]], axis=1) / safe[:, None]
-    return np.where(has[:, None], coefficients, np.array([0.0, 0.0, 0.0, 1.0]))
-
-
-def _clip_to_face(ref, face, frames, polygons, counts, item_row):
-    """Polygons of items (k) clipped to ``p >= 0`` and their rows' reference faces."""
+def _clip_to_face(ref, face, polygons, counts, item_row):
+    """Polygons of items (k) clipped to ``p >= 0`` and their rows' reference faces' sides
+    (:attr:`Hull.side_planes`, precomputed in each face's frame)."""
     polygons, counts = pc.clip(polygons, counts, np.array([0.0, 0.0, 1.0, 0.0]), True)
-    _, _, origin, e_u, e_w = frames
+    planes = ref.side_planes[face[item_row]]  # (k, M, 4)
     for side in range(int(ref.face_counts[face].max(initial=0))):
-        coefficients = _side_coefficients(ref, face, origin, e_u, e_w, side)[item_row]
         if len(counts) == 0:
             break
-        polygons, counts = pc.clip(polygons, counts, coefficients)
+        polygons, counts = pc.clip(polygons, counts, planes[:, side])
     return polygons, counts
 
 
@@ -100,7 +79,7 @@ def _region(ref, face, frames, inc: Hull, rot_inc, uwp):
     reach = front[:, inc.triangle_face] & (tri_p.max(axis=2) >= 0.0)
     row, tri = np.nonzero(reach)
     polygons = uwp[row[:, None], inc.triangles[tri]]  # (k, 3, 3)
-    polygons, counts = _clip_to_face(ref, face, frames, polygons, np.full(len(row), 3), row)
+    polygons, counts = _clip_to_face(ref, face, polygons, np.full(len(row), 3), row)
     per_item = pc.moments(polygons, counts)
     totals = np.stack([np.bincount(row, per_item[i], minlength=m) for i in range(4)])
     slot = np.arange(polygons.shape[1])[None, :] < counts[:, None]
@@ -140,7 +119,7 @@ def _manifold(ref, face, frames, inc: Hull, inc_face, uwp, tau):
     n, _, origin, e_u, e_w = frames
     loops, counts = inc.face_loops[inc_face], inc.face_counts[inc_face]
     polygons = np.take_along_axis(uwp, loops[:, :, None], axis=1)
-    polygons, counts = _clip_to_face(ref, face, frames, polygons, counts, np.arange(m))
+    polygons, counts = _clip_to_face(ref, face, polygons, counts, np.arange(m))
     width = polygons.shape[1]
     pick = (np.arange(MAX_MANIFOLD_POINTS)[None, :] * np.maximum(counts, 1)[:, None]
             // MAX_MANIFOLD_POINTS)

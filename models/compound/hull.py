@@ -50,6 +50,9 @@ class Hull:
     triangle_face: np.ndarray  # (T,) the face of each triangle
     vertex_faces: np.ndarray  # (V, F) bool: the vertex lies on the face
     half_extent: float  # the largest half-extent of the hull's bounding box (m)
+    face_frames: np.ndarray  # (F, 3, 3) per face: origin (its first vertex), in-plane axes u, w
+    side_planes: np.ndarray  # (F, M, 4) per face side: c . (u, w, p, 1) >= 0 inside (metres);
+    # (0, 0, 0, 1) past the face's sides
 
     @property
     def n_faces(self) -> int:
@@ -108,8 +111,32 @@ def _make(vertices, normals, offsets, loops) -> Hull:
         vertex_faces[loop, f] = True
     vertex_faces.setflags(write=False)
     extent = 0.5 * float((vertices.max(axis=0) - vertices.min(axis=0)).max())
+    frames, sides = _face_planes(vertices, normals, padded, counts)
     return Hull(vertices, normals, offsets, padded, counts, edges, edge_faces, edge_of, tris,
-                tri_face, vertex_faces, extent)
+                tri_face, vertex_faces, extent, frames, sides)
+
+
+def _face_planes(vertices, normals, loops, counts):
+    """Each face's frame (origin, u, w) and its sides as half-planes in (u, w) (module
+    docstring of :mod:`impactnet.models.compound.convex_face`)."""
+    origin = vertices[loops[:, 0]]
+    e_u = vertices[loops[:, 1]] - origin
+    e_u /= np.linalg.norm(e_u, axis=1, keepdims=True)
+    e_w = np.cross(normals, e_u)
+    frames = np.stack([origin, e_u, e_w], axis=1)
+    width = loops.shape[1]
+    sides = np.tile(np.array([0.0, 0.0, 0.0, 1.0]), (len(loops), width, 1))
+    for f in range(len(loops)):
+        rel = vertices[loops[f, :counts[f]]] - origin[f]
+        uv = np.stack([rel @ e_u[f], rel @ e_w[f]], axis=1)
+        edge = np.roll(uv, -1, axis=0) - uv
+        length = np.linalg.norm(edge, axis=1)
+        sides[f, :counts[f]] = np.stack([-edge[:, 1], edge[:, 0], np.zeros(counts[f]),
+                                         edge[:, 1] * uv[:, 0] - edge[:, 0] * uv[:, 1]],
+                                        axis=1) / length[:, None]
+    frames.setflags(write=False)
+    sides.setflags(write=False)
+    return frames, sides
 
 
 def box_hull(size, centre=(0.0, 0.0, 0.0)) -> Hull:
@@ -139,7 +166,8 @@ def _reorder_box_edges(hull: Hull) -> Hull:
         array.setflags(write=False)
     return Hull(hull.vertices, hull.face_normals, hull.face_offsets, hull.face_loops,
                 hull.face_counts, edges, edge_faces, edge_of, hull.triangles,
-                hull.triangle_face, hull.vertex_faces, hull.half_extent)
+                hull.triangle_face, hull.vertex_faces, hull.half_extent, hull.face_frames,
+                hull.side_planes)
 
 
 def _merged_faces(points: np.ndarray, name: str):

@@ -55,6 +55,8 @@ def clip(polygons: np.ndarray, counts: np.ndarray, coefficients: np.ndarray,
              + coefficients[:, None, P] * polygons[:, :, P] + coefficients[:, None, 3])
     slot = np.arange(width)[None, :]
     valid = slot < counts[:, None]
+    if not (valid & (value < 0.0)).any():  # nothing outside: the polygons stay as they are
+        return polygons, counts
     following = np.where(slot + 1 < counts[:, None], slot + 1, 0)
     nxt_value = np.take_along_axis(value, following, axis=1)
     nxt_point = np.take_along_axis(polygons, following[:, :, None], axis=1)
