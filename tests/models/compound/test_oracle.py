@@ -101,3 +101,20 @@ def test_one_pose_equals_its_row_of_a_batch():
         rows = batch.of_pose(k)
         np.testing.assert_array_equal(one.part_a, batch.part_a[rows])
         np.testing.assert_array_equal(one.contacts.point, batch.contacts.point[rows])
+
+
+def test_blocks_of_poses_give_the_same_answer_as_one_block(monkeypatch):
+    from impactnet.models.compound import oracle
+
+    rng = np.random.default_rng(11)
+    n = 50
+    position_b = np.c_[rng.uniform(-0.1, 0.1, (n, 2)), HEIGHT - rng.uniform(-1e-3, 3e-3, n)]
+    quaternion_b = random_quaternions(n, rng) * 0 + [1.0, 0, 0, 0]
+    whole = compound_contacts(FORTY, np.zeros(3), IDENTITY, FORTY, position_b, quaternion_b)
+    monkeypatch.setattr(oracle, "ORACLE_CHUNK", 7)
+    blocks = compound_contacts(FORTY, np.zeros(3), IDENTITY, FORTY, position_b, quaternion_b)
+    for name in ("pose", "part_a", "part_b", "offsets"):
+        np.testing.assert_array_equal(getattr(blocks, name), getattr(whole, name), err_msg=name)
+    for name, column in whole.contacts.arrays().items():
+        np.testing.assert_array_equal(blocks.contacts.arrays()[name], column, err_msg=name)
+    assert (np.diff(whole.offsets) == 0).any() and len(whole.pose) > n  # both kinds of pose
