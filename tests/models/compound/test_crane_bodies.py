@@ -97,3 +97,39 @@ def test_cell_guide_entry_leans_away_from_the_cell_at_its_angle():
 def test_every_assumed_figure_is_named():
     for name in cb.ASSUMPTIONS:
         assert name.startswith("the ") or hasattr(cb, name), name
+
+
+def _in_cell(gap_along, gap_across, z=0.0):
+    """A 40 ft container in the cell, its corner ``gap_along`` (x) and ``gap_across`` (y)
+    from the guide's inner faces, its centre at height ``z``."""
+    from impactnet.models.compound.oracle import compound_contacts
+
+    length, width, _ = cb.CONTAINERS["40ft"]
+    t = cb.GUIDE_THICKNESS
+    centre = [t + gap_along + length / 2, t + gap_across + width / 2, z]
+    guide = cb.cell_guide()
+    found = compound_contacts(guide, np.zeros(3), [1.0, 0, 0, 0], cb.container("40ft"), centre,
+                              [1.0, 0, 0, 0])
+    return guide, found
+
+
+def test_a_container_in_its_cell_clears_the_guide_by_the_issue_clearances():
+    _, found = _in_cell(cb.GUIDE_CLEARANCE_ALONG, cb.GUIDE_CLEARANCE_ACROSS)
+    assert len(found.pose) == 0
+    guide, found = _in_cell(cb.GUIDE_CLEARANCE_ALONG, -0.1 * MM)  # pushed across onto the angle
+    assert {guide[k].name for k in found.part_a} == {"leg_x"}
+    np.testing.assert_allclose(found.contacts.normal, np.tile([0, 1.0, 0], (len(found.pose), 1)),
+                               atol=1e-12)
+
+
+def test_the_entry_guide_steers_a_container_lowered_off_line_into_the_cell():
+    """Lowered 60 mm too far across, the container's bottom edge lands on the chamfered entry:
+    the normal pushes it back across and up, at the chamfer's angle."""
+    height = cb.CONTAINERS["40ft"][2]
+    top = cb.GUIDE_HEIGHT_ASSUMED / 2 + cb.ENTRY_RISE_ASSUMED / 2
+    guide, found = _in_cell(cb.GUIDE_CLEARANCE_ALONG, -60 * MM, z=top + height / 2 - 0.05)
+    names = {guide[k].name for k in found.part_a}
+    assert names == {"entry_x"}, names
+    normal = found.contacts.normal[np.argmax(found.contacts.depth)]
+    assert normal[1] > 0.5 and normal[2] > 0.3  # back across and up
+    np.testing.assert_allclose(np.degrees(np.arctan2(normal[2], normal[1])), 30.0, atol=1e-6)
