@@ -12,10 +12,15 @@ marked optional, and any other key is an error::
     [accuracy]
     normal_deg = 1.0              # required normal angle error, degrees, > 0
     point_fraction = 0.02         # required point error, fraction of the shortest edge, > 0
+    part_point_fraction = 0.02    # optional, compound pairs: fraction of the touching part's
+                                  # smallest extent (Scene.point_tolerance_m); default:
+                                  # point_fraction
 
     [bodies.container40]          # one table per body; the key is the body's name
     size = [12.192, 2.438, 2.591] # full edge lengths [lx, ly, lz], metres, > 0
     description = "..."           # optional
+                                  # or a compound body: `generator` and its parameters, or
+                                  # [[bodies.NAME.parts]] (impactnet.models.scene_bodies)
 
     [[pairs]]                     # one entry per pair of bodies that can collide
     a = "container40"             # body A (a pair of a body with itself is allowed)
@@ -25,7 +30,12 @@ marked optional, and any other key is an error::
 "Shortest edge" of a pair is the shortest edge of either body (:meth:`Scene.smaller_shortest_edge`):
 never longer than the smaller body's shortest edge (tolerances from it are never looser), and
 the length by which :func:`impactnet.models.geometry.poses.first_contact_poses` scales its push
-depths.
+depths. For a pair with a compound body it is taken over the envelopes (``Body.size``), which is
+what ``depth_fraction`` scales for every pair.
+
+Compound bodies are not boxes: :meth:`Scene.pair_sizes` (the box paths' input) refuses a pair
+with a compound body, naming it, and :meth:`Scene.require_box_pairs` lets a box-only tool say so
+before it starts; :meth:`Scene.compound_pairs` and :meth:`Scene.box_pairs` split the pairs.
 
 Validation raises :class:`SceneError` (a ``ValueError``) naming the file and the field, e.g.
 ``scenes/x.toml: pairs[2].b: unknown body 'container45'``.
@@ -37,19 +47,14 @@ import json
 import os
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from impactnet.models import scene_fields as sf
-from impactnet.models.compound.parts import bounds
-from impactnet.models.compound.scene_parts import (
-    COMPOUND_KEYS,
-    compound_parts,
-    is_compound,
-    parts_geometry,
-)
+from impactnet.models.compound.scene_parts import parts_geometry
+from impactnet.models.scene_bodies import Body, BodyPair, parse_bodies, parse_pairs
 from impactnet.models.scene_fields import (  # noqa: F401  (re-exported: the scene's API)
     MAX_DEPTH_FRACTION,
     NAME_PATTERN,
@@ -66,40 +71,7 @@ DEFAULT_SCENE = "quay_crane"
 
 _TOP_KEYS = ({"scene", "accuracy", "bodies", "pairs"}, set())
 _SCENE_KEYS = ({"name", "depth_fraction"}, {"description"})
-_ACCURACY_KEYS = ({"normal_deg", "point_fraction"}, set())
-_BODY_KEYS = (set(), {"size", "description", *COMPOUND_KEYS})
-_PAIR_KEYS = ({"a", "b"}, {"description"})
-
-
-@dataclass(frozen=True)
-class Body:
-    """A body of a scene: a box, or a compound body made of parts."""
-
-    name: str  # identifier, unique in the scene
-    size: tuple[float, float, float]  # full edge lengths (lx, ly, lz), metres, > 0; for a
-    # compound body the extent of its parts' bounds (its envelope)
-    description: str = ""  # free text, not part of the scene hash
-    parts: tuple | None = None  # compound body: its validated parts (body frame); None: a box
-    spec: Mapping | None = field(default=None, compare=False)  # compound: the file's table
-
-    @property
-    def is_compound(self) -> bool:
-        """Whether the body is made of parts (:mod:`impactnet.models.compound`)."""
-        return self.parts is not None
-
-
-@dataclass(frozen=True)
-class BodyPair:
-    """Two bodies (names) that can collide; A is the first, the normal points from A to B."""
-
-    a: str  # name of body A
-    b: str  # name of body B (may equal a)
-    description: str = ""  # why the pair is in the scene; not part of the scene hash
-
-    @property
-    def key(self) -> str:
-        """``"a/b"``: a readable, unique name of the pair."""
-        return f"{self.a}/{self.b}"
+_ACCURACY_KEYS = ({"normal_deg", "point_fraction"}, {"part_point_fraction"})
 
 
 @dataclass(frozen=True)
@@ -108,6 +80,8 @@ class Accuracy:
 
     normal_deg: float  # normal angle error, degrees, > 0
     point_fraction: float  # point error as a fraction of the pair's shortest edge, > 0
+    part_point_fraction: float | None = None  # compound pairs: point error as a fraction of
+    # the touching part's smallest extent (Scene.point_tolerance_m); None: point_fraction
 
 
 @dataclass(frozen=True)
@@ -133,20 +107,69 @@ class Scene:
         """Full edge lengths of body ``name``, float64, shape (3,), metres (a fresh copy)."""
         return np.array(self.body(name).size, dtype=np.float64)
 
-    def pair_sizes(self) -> np.ndarray:
+    def _pair(self, pair: BodyPair | tuple[str, str] | int) -> tuple[str, str]:
+        """(a, b) names of a BodyPair, (a, b) names or an index into :attr:`pairs`."""
+        if isinstance(pair, int):
+            pair = self.pairs[pair]
+        return (pair.a, pair.b) if isinstance(pair, BodyPair) else tuple(pair)
+
+    def is_compound_pair(self, pair: BodyPair | tuple[str, str] | int) -> bool:
+        """Whether either body of ``pair`` is made of parts."""
+        return any(self.body(name).is_compound for name in self._pair(pair))
+
+    def compound_pairs(self) -> tuple[BodyPair, ...]:
+        """The pairs with a compound body, in file order (the compound oracle's)."""
+        return tuple(p for p in self.pairs if self.is_compound_pair(p))
+
+    def box_pairs(self) -> tuple[BodyPair, ...]:
+        """The pairs of two boxes, in file order (the box solver's and the box models')."""
+        return tuple(p for p in self.pairs if not self.is_compound_pair(p))
+
+    def require_box_pairs(self, what: str, pairs=None) -> None:
+        """Raise :class:`SceneError` naming every pair of ``pairs`` (default: all; BodyPairs,
+        (a, b) names or indices) that has a compound body, for ``what`` (a box-only tool)."""
+        pairs = self.pairs if pairs is None else pairs
+        compound = ["/".join(self._pair(p)) for p in pairs if self.is_compound_pair(p)]
+        if compound:
+            raise SceneError(self.name, "pairs", f"{what} handles pairs of boxes only; "
+                             f"{', '.join(compound)} "
+                             f"{'has' if len(compound) == 1 else 'have'} a compound body "
+                             "(made of parts: the exact compound oracle answers it)")
+
+    def pair_sizes(self, envelopes: bool = False) -> np.ndarray:
         """Sizes of every pair, float64, shape (m, 2, 3), metres: ``[k, 0]`` A, ``[k, 1]`` B.
 
-        ``for size_a, size_b in scene.pair_sizes():`` walks the pairs in file order.
+        ``for size_a, size_b in scene.pair_sizes():`` walks the pairs in file order. A pair
+        with a compound body raises :class:`SceneError` naming it (its size is an envelope,
+        not the body), unless ``envelopes`` asks for the envelopes knowingly.
         """
+        if not envelopes:
+            self.require_box_pairs("Scene.pair_sizes (the box solver's sizes)")
         return np.array([[self.body(p.a).size, self.body(p.b).size] for p in self.pairs],
                         dtype=np.float64).reshape(len(self.pairs), 2, 3)
 
     def smaller_shortest_edge(self, pair: BodyPair | tuple[str, str] | int) -> float:
-        """Shortest edge of either body of ``pair`` (a BodyPair, (a, b) names or an index), m."""
-        if isinstance(pair, int):
-            pair = self.pairs[pair]
-        a, b = (pair.a, pair.b) if isinstance(pair, BodyPair) else pair
+        """Shortest edge of either body of ``pair`` (a BodyPair, (a, b) names or an index), m;
+        of the envelopes for a compound body (what ``depth_fraction`` scales)."""
+        a, b = self._pair(pair)
         return float(min(min(self.body(a).size), min(self.body(b).size)))
+
+    def point_tolerance_m(self, pair: BodyPair | tuple[str, str] | int,
+                          part_a: str | None = None, part_b: str | None = None) -> float:
+        """The point error the scene allows for ``pair``, metres.
+
+        Box pairs: ``point_fraction`` x :meth:`smaller_shortest_edge`. Pairs with a compound
+        body (issue #21): ``part_point_fraction`` (default ``point_fraction``) x the smaller of
+        the two touching parts' smallest extents (:meth:`Body.touching_extent`: a part's group,
+        so a casting's 118 mm at every detail level, 2.36 mm at 2 %); without part names, the
+        smallest over the bodies' parts (the tightest the pair can ask for).
+        """
+        a, b = self._pair(pair)
+        if not self.is_compound_pair((a, b)):
+            return self.accuracy.point_fraction * self.smaller_shortest_edge((a, b))
+        fraction = self.accuracy.part_point_fraction or self.accuracy.point_fraction
+        return fraction * min(self.body(a).touching_extent(part_a),
+                              self.body(b).touching_extent(part_b))
 
     def to_dict(self) -> dict:
         """The scene as the TOML structure (plain types); ``parse_scene`` inverts it."""
@@ -161,23 +184,29 @@ class Scene:
                 bodies[body.name]["description"] = body.description
         pairs = [{"a": p.a, "b": p.b, **({"description": p.description} if p.description
                                           else {})} for p in self.pairs]
-        return {"scene": scene,
-                "accuracy": {"normal_deg": self.accuracy.normal_deg,
-                             "point_fraction": self.accuracy.point_fraction},
-                "bodies": bodies, "pairs": pairs}
+        accuracy = {"normal_deg": self.accuracy.normal_deg,
+                    "point_fraction": self.accuracy.point_fraction}
+        if self.accuracy.part_point_fraction is not None:
+            accuracy["part_point_fraction"] = self.accuracy.part_point_fraction
+        return {"scene": scene, "accuracy": accuracy, "bodies": bodies, "pairs": pairs}
 
     def hash(self) -> str:
         """SHA-256 (hex) of the scene's content, canonically ordered.
 
         Covers the name, the depth range, the accuracy, every body's size (and a compound
-        body's parts: names, kinds, vertices) and the pairs (as
-        ordered (a, b) tuples); not the descriptions (documentation, they change no data) and
-        not the order of keys, bodies or pairs, nor the file's whitespace or comments.
+        body's parts: names, kinds, vertices, so a changed mesh file or generator changes it)
+        and the pairs (as ordered (a, b) tuples); not the descriptions (documentation, they
+        change no data) and not the order of keys, bodies or pairs, nor the file's whitespace
+        or comments. Box-only scenes without ``part_point_fraction`` hash as they did before
+        compound bodies existed.
         """
+        accuracy = [self.accuracy.normal_deg, self.accuracy.point_fraction]
+        if self.accuracy.part_point_fraction is not None:
+            accuracy.append(self.accuracy.part_point_fraction)
         canonical = {
             "name": self.name,
             "depth_fraction": list(self.depth_fraction),
-            "accuracy": [self.accuracy.normal_deg, self.accuracy.point_fraction],
+            "accuracy": accuracy,
             "bodies": {b.name: [list(b.size), parts_geometry(b.parts)] if b.is_compound
                        else list(b.size) for b in self.bodies},
             "pairs": sorted([p.a, p.b] for p in self.pairs),
@@ -258,61 +287,11 @@ def parse_scene(data: Mapping, source: str = "scene") -> Scene:
     description = sf.text(head.get("description", ""), "scene.description", source)
     depth = sf.depth_range(head["depth_fraction"], "scene.depth_fraction", source)
     acc = sf.table(data["accuracy"], "accuracy", _ACCURACY_KEYS, source)
+    part_point = acc.get("part_point_fraction")
     accuracy = Accuracy(sf.positive(acc["normal_deg"], "accuracy.normal_deg", source),
-                        sf.positive(acc["point_fraction"], "accuracy.point_fraction", source))
-    bodies = _bodies(data["bodies"], source)
-    pairs = _pairs(data["pairs"], {b.name for b in bodies}, source)
+                        sf.positive(acc["point_fraction"], "accuracy.point_fraction", source),
+                        None if part_point is None else
+                        sf.positive(part_point, "accuracy.part_point_fraction", source))
+    bodies = parse_bodies(data["bodies"], source)
+    pairs = parse_pairs(data["pairs"], {b.name for b in bodies}, source)
     return Scene(name, description, depth, accuracy, bodies, pairs)
-
-
-def _bodies(table, source: str) -> tuple[Body, ...]:
-    if not isinstance(table, Mapping) or not table:
-        raise SceneError(source, "bodies", "expected at least one [bodies.NAME] table")
-    bodies = []
-    for key, entry in table.items():
-        path = f"bodies.{key}"
-        name = sf.name(key, path, source)
-        entry = sf.table(entry, path, _BODY_KEYS, source)
-        description = sf.text(entry.get("description", ""), f"{path}.description", source)
-        if is_compound(entry):
-            if "size" in entry:
-                raise SceneError(source, path, "a compound body takes no `size` (its parts "
-                                 "give it)")
-            parts = compound_parts(entry, path, source)
-            lows, highs = zip(*(bounds(p) for p in parts))
-            extent = tuple(float(v) for v in np.max(highs, axis=0) - np.min(lows, axis=0))
-            spec = {k: v for k, v in entry.items() if k != "description"}
-            bodies.append(Body(name, extent, description, parts, spec))
-            continue
-        if "size" not in entry:
-            raise SceneError(source, path, f"missing {path}.size (or, for a compound body, "
-                             "`generator` or `parts`)")
-        size = entry["size"]
-        if not isinstance(size, list | tuple) or len(size) != 3:
-            raise SceneError(source, f"{path}.size",
-                             f"expected 3 numbers [lx, ly, lz] in metres, got {size!r}")
-        edges = tuple(sf.positive(v, f"{path}.size[{i}]", source) for i, v in enumerate(size))
-        bodies.append(Body(name, edges, description))
-    return tuple(bodies)
-
-
-def _pairs(entries, names: set[str], source: str) -> tuple[BodyPair, ...]:
-    if not isinstance(entries, list) or not entries:
-        raise SceneError(source, "pairs", "expected at least one [[pairs]] entry")
-    pairs, seen = [], {}
-    for k, entry in enumerate(entries):
-        path = f"pairs[{k}]"
-        entry = sf.table(entry, path, _PAIR_KEYS, source)
-        a, b = (sf.text(entry[s], f"{path}.{s}", source) for s in "ab")
-        for side, body in (("a", a), ("b", b)):
-            if body not in names:
-                raise SceneError(source, f"{path}.{side}", f"unknown body {body!r} "
-                                 f"(bodies: {', '.join(sorted(names))})")
-        unordered = frozenset((a, b))
-        if unordered in seen:
-            raise SceneError(source, path, f"duplicate pair ({a}, {b}): already given as "
-                             f"pairs[{seen[unordered]}]")
-        seen[unordered] = k
-        pairs.append(BodyPair(a, b, sf.text(entry.get("description", ""),
-                                          f"{path}.description", source)))
-    return tuple(pairs)

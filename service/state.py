@@ -133,8 +133,9 @@ def describe(bundle: Bundle, path: Path, scene: SceneView) -> dict:
         }
     table = PairTable([(m.size_a, m.size_b) for m in bundle.pairs.values()])
     covered, missing = [], []
-    for a, b in scene.pairs:
-        hit = table.match_one(scene.size_of(a), scene.size_of(b)) != UNSUPPORTED
+    for a, b in scene.pairs:  # a compound body has no size here: the oracle answers its pairs
+        sizes = scene.size_of(a), scene.size_of(b)
+        hit = None not in sizes and table.match_one(*sizes) != UNSUPPORTED
         (covered if hit else missing).append(f"{a}/{b}")
     return {
         "path": str(path.resolve()),

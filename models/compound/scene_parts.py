@@ -20,11 +20,26 @@
     frustum = { sides = 16, base = [0.1, 0.06], tip_scale = 0.5, height = 0.05,
                 centre = [0, 0, 0.1] }                  # a stadium frustum, base at centre
     [[bodies.stop.parts]]
+    name = "pin"
+    frustum = { sides = 12, base = 0.05, height = 0.08 } # base = d: a regular 12-gon cone
+    [[bodies.stop.parts]]
+    name = "chamfer"
+    wedge = { size = [0.1, 0.2, 0.05], centre = [0.15, 0, 0.025], high = "-x",
+              low_height = 0.0 }  # a box whose top slopes from full height at -x to 0 at +x
+    [[bodies.stop.parts]]
+    name = "rail"
+    prism = { section = [[0, 0], [0.04, 0], [0.02, 0.03]], height = 1.0, axis = "x",
+              centre = [0, 0, 0.1] }  # a convex polygon (in order) extruded along an axis
+    [[bodies.stop.parts]]
     name = "lid"
     mesh = "lid.stl"              # STL/OBJ/GLB next to the scene file: its convex hull
 
-Every part goes through :func:`impactnet.models.compound.parts.validate_parts`; its errors
-come back as :class:`SceneError` naming the field (``bodies.stop.parts[2].mesh: ...``).
+The generated shapes' parameters are documented in :mod:`impactnet.models.compound.shapes`
+(``centre`` defaults to the origin; ``tip_scale`` to 1, ``high`` to ``"-x"``, ``low_height``
+to 0, ``axis`` to ``"z"``). Every part goes through
+:func:`impactnet.models.compound.parts.validate_parts` (domain, flat hulls, a part inside a box
+part) and :func:`check_not_inside_convex` (a part inside a convex part); their errors come back
+as :class:`SceneError` naming the field (``bodies.stop.parts[2].mesh: ...``).
 """
 from __future__ import annotations
 
@@ -35,7 +50,15 @@ import numpy as np
 
 from impactnet.models import scene_fields as sf
 from impactnet.models.compound import crane_bodies as cb
-from impactnet.models.compound.parts import BoxPart, ConvexPart, PartError, validate_parts
+from impactnet.models.compound import shapes
+from impactnet.models.compound.parts import (
+    INSIDE_TOL_REL,
+    BoxPart,
+    ConvexPart,
+    PartError,
+    bounds,
+    validate_parts,
+)
 from impactnet.models.scene_fields import SceneError
 
 #: Generators and the parameters each takes (all optional, the generator's defaults apply).
@@ -44,7 +67,7 @@ GENERATORS = {"container": ("kind", "detail"), "spreader": ("kind", "sides"),
 #: Keys of a body table that describe a compound body.
 COMPOUND_KEYS = {"generator", "parts", *(k for keys in GENERATORS.values() for k in keys)}
 #: The shapes a part may take (exactly one per part).
-SHAPES = ("box", "points", "frustum", "mesh")
+SHAPES = ("box", "points", "frustum", "wedge", "prism", "mesh")
 
 
 def is_compound(entry: Mapping) -> bool:
@@ -58,12 +81,12 @@ def compound_parts(entry: Mapping, path: str, source: str) -> tuple:
         raise SceneError(source, path, "give exactly one of `generator` and `parts`")
     try:
         if "generator" in entry:
-            return _generated(entry, path, source)
+            return check_not_inside_convex(path, _generated(entry, path, source))
         parts = entry["parts"]
         if not isinstance(parts, list) or not parts:
             raise SceneError(source, f"{path}.parts", "expected at least one [[parts]] entry")
-        return validate_parts(path, [_part(p, f"{path}.parts[{k}]", source)
-                                     for k, p in enumerate(parts)])
+        return check_not_inside_convex(path, validate_parts(
+            path, [_part(p, f"{path}.parts[{k}]", source) for k, p in enumerate(parts)]))
     except PartError as exc:
         names = [p.get("name") for p in entry.get("parts", []) if isinstance(p, Mapping)]
         where = f"{path}.parts[{names.index(exc.part)}]" if exc.part in names else path
@@ -97,24 +120,29 @@ def _vector(value, path: str, source: str, width: int = 3) -> list[float]:
 def _part(entry, path: str, source: str):
     entry = sf.table(entry, path, ({"name"}, set(SHAPES)), source)
     name = sf.name(entry["name"], f"{path}.name", source)
-    shapes = [s for s in SHAPES if s in entry]
-    if len(shapes) != 1:
+    shapes_given = [s for s in SHAPES if s in entry]
+    if len(shapes_given) != 1:
         raise SceneError(source, path, f"give exactly one shape of {', '.join(SHAPES)}")
-    shape, value = shapes[0], entry[shapes[0]]
+    shape, value = shapes_given[0], entry[shapes_given[0]]
     where = f"{path}.{shape}"
     if shape == "box":
         value = sf.table(value, where, ({"size"}, {"centre"}), source)
-        size = tuple(sf.positive(v, f"{where}.size[{i}]", source)
-                     for i, v in enumerate(_vector(value["size"], f"{where}.size", source)))
-        return BoxPart(name, size, tuple(_vector(value.get("centre", [0.0] * 3),
-                                                 f"{where}.centre", source)))
+        return BoxPart(name, _sizes(value["size"], f"{where}.size", source),
+                       _centre(value, where, source))
     if shape == "points":
         if not isinstance(value, list) or len(value) < 4:
             raise SceneError(source, where, "expected at least 4 points [x, y, z]")
         return ConvexPart(name, tuple(tuple(_vector(p, f"{where}[{k}]", source))
                                       for k, p in enumerate(value)))
-    if shape == "frustum":
-        return _frustum(name, value, where, source)
+    if shape in _GENERATED:
+        try:
+            points = _GENERATED[shape](value, where, source)
+        except ValueError as exc:
+            if isinstance(exc, SceneError):
+                raise
+            field, _, reason = str(exc).partition(": ")
+            raise SceneError(source, f"{where}.{field}", reason) from None
+        return ConvexPart(name, tuple(map(tuple, np.asarray(points, np.float64))))
     from impactnet.models.compound.meshes import inline_mesh_part, mesh_part
 
     if isinstance(value, Mapping):  # inline in a request: {format, data (base64)}
@@ -122,26 +150,84 @@ def _part(entry, path: str, source: str):
     return mesh_part(name, Path(source).parent / sf.text(value, where, source), where, source)
 
 
-def _frustum(name: str, value, where: str, source: str) -> ConvexPart:
-    """A stadium frustum: ``base`` [along, across] (m) at ``centre``, narrowing by
-    ``tip_scale`` over ``height`` (m, signed: negative points down), ``sides`` vertices."""
+def _sizes(value, where: str, source: str, width: int = 3) -> tuple[float, ...]:
+    return tuple(sf.positive(v, f"{where}[{i}]", source)
+                 for i, v in enumerate(_vector(value, where, source, width)))
+
+
+def _centre(value: Mapping, where: str, source: str) -> tuple[float, ...]:
+    return tuple(_vector(value.get("centre", [0.0] * 3), f"{where}.centre", source))
+
+
+def _integer(value, where: str, source: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise SceneError(source, where, f"expected an integer, got {value!r}")
+    return value
+
+
+def _frustum(value, where: str, source: str) -> np.ndarray:
+    """:func:`impactnet.models.compound.shapes.frustum_points` of a ``frustum`` table."""
     value = sf.table(value, where, ({"sides", "base", "height"}, {"tip_scale", "centre"}),
                      source)
-    sides = value["sides"]
-    if isinstance(sides, bool) or not isinstance(sides, int):
-        raise SceneError(source, f"{where}.sides", f"expected an even integer, got {sides!r}")
-    along, across = (sf.positive(v, f"{where}.base[{i}]", source)
-                     for i, v in enumerate(_vector(value["base"], f"{where}.base", source, 2)))
+    sides = _integer(value["sides"], f"{where}.sides", source)
+    base = value["base"]  # a diameter (regular polygon) or [along, across] (stadium)
+    base = (_sizes(base, f"{where}.base", source, 2) if isinstance(base, list)
+            else sf.positive(base, f"{where}.base", source))
     scale = sf.positive(value.get("tip_scale", 1.0), f"{where}.tip_scale", source)
     height = sf.number(value["height"], f"{where}.height", source)
-    x, y, z = _vector(value.get("centre", [0.0] * 3), f"{where}.centre", source)
-    try:
-        section = cb.stadium(along, across, sides)
-    except ValueError as exc:
-        raise SceneError(source, f"{where}.sides", str(exc)) from None
-    points = [(x + u, y + w, z) for u, w in section]
-    points += [(x + scale * u, y + scale * w, z + height) for u, w in section]
-    return ConvexPart(name, tuple(points))
+    return shapes.frustum_points(base, sides, height, scale, _centre(value, where, source))
+
+
+def _wedge(value, where: str, source: str) -> np.ndarray:
+    """:func:`impactnet.models.compound.shapes.wedge_points` of a ``wedge`` table."""
+    value = sf.table(value, where, ({"size"}, {"centre", "high", "low_height"}), source)
+    return shapes.wedge_points(_sizes(value["size"], f"{where}.size", source),
+                               _centre(value, where, source),
+                               sf.text(value.get("high", "-x"), f"{where}.high", source),
+                               sf.number(value.get("low_height", 0.0), f"{where}.low_height",
+                                         source))
+
+
+def _prism(value, where: str, source: str) -> np.ndarray:
+    """:func:`impactnet.models.compound.shapes.prism_points` of a ``prism`` table."""
+    value = sf.table(value, where, ({"section", "height"}, {"axis", "centre"}), source)
+    section = value["section"]
+    if not isinstance(section, list) or len(section) < 3:
+        raise SceneError(source, f"{where}.section", "expected at least 3 points [u, v]")
+    section = [_vector(p, f"{where}.section[{k}]", source, 2) for k, p in enumerate(section)]
+    return shapes.prism_points(section, sf.number(value["height"], f"{where}.height", source),
+                               sf.text(value.get("axis", "z"), f"{where}.axis", source),
+                               _centre(value, where, source))
+
+
+#: Parsers of the generated shapes: (table, field path, source) -> points (k, 3).
+_GENERATED = {"frustum": _frustum, "wedge": _wedge, "prism": _prism}
+
+
+def check_not_inside_convex(body: str, parts: tuple) -> tuple:
+    """``parts`` unchanged, after refusing (:class:`PartError`) a part whose every vertex lies
+    in a convex part of the same body (within :data:`~impactnet.models.compound.parts.
+    INSIDE_TOL_REL` of that part's size): it can never touch anything. The box containers are
+    :func:`~impactnet.models.compound.parts.validate_parts`' test. Only the parts whose bounds
+    lie in a convex part's bounds are tested against its hull (Qhull's facets)."""
+    lows, highs = (np.array(b) for b in zip(*(bounds(p) for p in parts)))
+    for i, outer in enumerate(parts):
+        if not isinstance(outer, ConvexPart):
+            continue
+        slack = INSIDE_TOL_REL * float((highs[i] - lows[i]).max())
+        within = ((lows >= lows[i] - slack) & (highs <= highs[i] + slack)).all(axis=1)
+        within[i] = False
+        if not within.any():
+            continue
+        from scipy.spatial import ConvexHull
+
+        facets = ConvexHull(outer.vertices()).equations  # n . x + d <= 0 inside
+        for k in np.flatnonzero(within):
+            inner = parts[k].vertices()
+            if (inner @ facets[:, :3].T + facets[:, 3]).max() <= slack:
+                raise PartError(parts[k].name, f"lies wholly inside part {outer.name!r} of "
+                                               f"body {body!r}: it can never touch anything")
+    return parts
 
 
 def parts_geometry(parts) -> list:

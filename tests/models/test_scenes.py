@@ -199,3 +199,67 @@ def test_hash_changes_with_any_size_or_setting():
         edit(changed)
         seen.add(parse_scene(changed).hash())
     assert len(seen) == 1 + 3 * len(base["bodies"]) + len(edits)
+
+
+#: VALID with a compound body: a 20 ft container at detail 1 beside the boxes.
+MIXED = variant(lambda d: (d["bodies"].update(crate={"generator": "container", "kind": "20ft"}),
+                           d["pairs"].append({"a": "crate", "b": "box"})))
+
+
+def test_compound_and_box_pairs_split_in_file_order():
+    scene = parse_scene(MIXED)
+    assert [p.key for p in scene.box_pairs()] == ["box/plate", "box/box"]
+    assert [p.key for p in scene.compound_pairs()] == ["crate/box"]
+    assert scene.is_compound_pair(2) and scene.is_compound_pair(("box", "crate"))
+    assert not scene.is_compound_pair(BodyPair("box", "plate"))
+
+
+def test_box_paths_refuse_a_compound_pair_naming_it():
+    scene = parse_scene(MIXED)
+    with pytest.raises(SceneError, match=r"^tiny: pairs: Scene\.pair_sizes .* crate/box has a "
+                                         r"compound body"):
+        scene.pair_sizes()
+    with pytest.raises(SceneError, match=r"impactnet train handles pairs of boxes only; "
+                                         r"crate/box has"):
+        scene.require_box_pairs("impactnet train")
+    scene.require_box_pairs("impactnet train", [0, 1])  # the box pairs alone pass
+    envelopes = scene.pair_sizes(envelopes=True)
+    np.testing.assert_allclose(envelopes[2, 0], ISO_20)
+    assert scene.smaller_shortest_edge(2) == 1.0  # the box's; the crate's envelope is wider
+
+
+def test_detail_scene_refuses_every_box_path_with_all_its_pairs_named():
+    scene = load_scene("quay_crane_detail")
+    assert scene.compound_pairs() == scene.pairs and scene.box_pairs() == ()
+    with pytest.raises(SceneError, match="container40/container40, container40/container20, "
+                                         "container40/spreader, cell_guide/container40 have"):
+        scene.pair_sizes()
+
+
+def test_point_tolerance_of_box_pairs_and_of_touching_parts():
+    scene = parse_scene(MIXED)
+    assert scene.point_tolerance_m(0) == pytest.approx(0.02 * 0.1)
+    assert scene.point_tolerance_m(2, "casting_top_fl", None) == pytest.approx(0.02 * 0.118)
+    assert scene.point_tolerance_m(2, "body", None) == pytest.approx(0.02 * 1.0)  # the box
+    detail = load_scene("quay_crane_detail")
+    assert detail.accuracy.part_point_fraction == 0.02
+    casting = detail.point_tolerance_m(0, "casting_bottom_fl", "casting_top_fl/ring_3")
+    assert casting == pytest.approx(0.00236)  # the 2.4 mm on a casting
+    assert detail.point_tolerance_m(2, "casting_top_fl/ring_3", "head_fl") == pytest.approx(
+        0.02 * 0.056)
+    coarser = copy.deepcopy(MIXED)
+    coarser["accuracy"]["part_point_fraction"] = 0.04
+    assert parse_scene(coarser).point_tolerance_m(2, "casting_top_fl") == pytest.approx(
+        0.04 * 0.118)
+
+
+def test_part_point_fraction_is_optional_validated_hashed_and_round_trips():
+    with pytest.raises(SceneError, match=r"accuracy\.part_point_fraction: must be > 0"):
+        parse_scene(variant(lambda d: d["accuracy"].update(part_point_fraction=0)))
+    given = parse_scene(variant(lambda d: d["accuracy"].update(part_point_fraction=0.02)))
+    plain = parse_scene(VALID)
+    assert plain.accuracy == Accuracy(1.0, 0.02) and plain.accuracy.part_point_fraction is None
+    assert given.hash() != plain.hash()
+    for scene in (given, parse_scene(MIXED), load_scene("quay_crane_detail")):
+        again = parse_scene(scene.to_dict())
+        assert again == scene and again.hash() == scene.hash()

@@ -3,6 +3,7 @@
     impactnet bench [--quick] [--out bench_results] [--seed 0] [--scene quay_crane] [--http]
                     [--grids 1,2,4,8,16,32,64] [--bundle PATH]
     impactnet bench exact [--quick] [--json PATH] [--seed 0] [--baseline DIR]
+    impactnet bench compound [--quick] [--out DIR] [--plot PNG] [--seed 1]
 
 The first form measures the exact solver, python-fcl's Box-Box, the paper's polygon method at
 each grid size and the learned predictors (``models.load_predictor``; "not available: <reason>"
@@ -12,7 +13,9 @@ with a "vs MuJoCo" column (every method against MuJoCo's box-box and a grid cent
 and writes ``results.md``, ``results.json``, ``pareto.png``, ``polygon_grid.png`` and
 ``figure2_tilt.png`` into ``--out`` (the Markdown is also printed). See
 :mod:`impactnet.training.bench`. The second form is the exact solver's own benchmark
-(:mod:`impactnet.training.bench.exact`).
+(:mod:`impactnet.training.bench.exact`). The third is the compound bodies' benchmark: the
+exact compound oracle's cost against detail next to FCL and MuJoCo, with issue #20's goals
+(:mod:`impactnet.training.bench.compound_detail`).
 
 ``impactnet/cli.py`` calls :func:`add_arguments` on its ``bench`` subparser and :func:`run`
 with the parsed arguments. Without that wiring: ``python -m impactnet.training.bench.cli [...]``.
@@ -69,17 +72,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     exact.add_argument("--baseline", metavar="DIR",
                        help="an earlier checkout (e.g. from `git worktree add DIR REV`): its "
                             "N = 1 time is measured next to this one's, alternately")
-
-
     compound = sub.add_parser(
         "compound", help="the compound oracle's cost against detail next to FCL mesh-mesh, "
                          "FCL Convex and MuJoCo, with their errors",
         description="Castings, apertures and twistlock heads of 8-256 sides: the compound "
                     "oracle (batch and N = 1) next to python-fcl mesh-mesh, python-fcl Convex "
-                    "and MuJoCo on the same first-contact poses, with their errors against it.")
+                    "and MuJoCo on the same first-contact poses, with their errors against it, "
+                    "and issue #20's goals (a few minutes; --quick: under a minute).")
     compound.add_argument("--quick", action="store_true", help="a tenth of the poses")
-    compound.add_argument("--out", metavar="DIR", help="write compound.md and "
-                          "compound_cost_vs_detail.png there (e.g. docs/benchmarks)")
+    compound.add_argument("--out", metavar="DIR", help="write compound.md there "
+                          "(e.g. docs/benchmarks)")
+    compound.add_argument("--plot", metavar="PNG", help="write the plot of cost against detail "
+                          "there (default: compound_cost_vs_detail.png in --out)")
     compound.add_argument("--seed", type=int, default=1, help="pose seed (default 1)")
 
 
@@ -95,10 +99,12 @@ def run(args: argparse.Namespace) -> int:
     if getattr(args, "bench_command", None) == "compound":
         from impactnet.training.bench.compound_detail import run as run_compound
 
-        _pin_single_thread()
         command = "impactnet bench compound" + (" --quick" if args.quick else "") + (
-            f" --out {args.out}" if args.out else "")
-        return run_compound(quick=args.quick, out=args.out, seed=args.seed, command=command)
+            f" --out {args.out}" if args.out else "") + (
+            f" --plot {args.plot}" if args.plot else "") + (
+            f" --seed {args.seed}" if args.seed != 1 else "")
+        return run_compound(quick=args.quick, out=args.out, seed=args.seed, command=command,
+                            plot_path=args.plot)
     if getattr(args, "bench_command", None) == "exact":
         from impactnet.training.bench.exact import run as run_exact
 

@@ -11,7 +11,9 @@ to 2 mrad about a random axis, pushed 0-5 mm), seeded. Measured in one run, one 
   loop (what an engine without a broadphase does; 81 pairs for two containers), on a subset.
 
 The issue's goals (#20): <= 15 us per pose at N = 1e5, <= 150 us at N = 1, >= 5x FCL on the
-same part boxes. Reported as measured, met or not.
+same part boxes. Reported as measured, met or not. ``impactnet bench compound``
+(:mod:`impactnet.training.bench.compound_detail`) runs this first and puts these lines on top
+of its report.
 """
 from __future__ import annotations
 

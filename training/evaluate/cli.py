@@ -69,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         config = _config(args)
         scene = load_scene(args.scene)
+        scene.require_box_pairs("impactnet evaluate")  # compound pairs: issue #21
         bundle = Path(args.bundle or f"models/bundles/{scene.name}")
         if not bundle.is_dir():
             raise ValueError(f"no bundle at {bundle} (build one with `impactnet train --scene "

@@ -88,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         scene = load_scene(args.scene)
+        scene.require_box_pairs("impactnet train")  # compound pairs: issue #21
         if args.seed < 0:
             raise ValueError(f"--seed must be >= 0, got {args.seed}")
         if args.workers is not None and args.workers < 1:

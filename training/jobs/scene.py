@@ -128,6 +128,7 @@ def train_pairs(scene: Scene, config: TrainConfig, progress: bool | None = None,
     refreshes the cache.
     """
     indices = list(range(len(scene.pairs))) if pairs is None else list(pairs)
+    scene.require_box_pairs("train_pairs", indices)  # no box models of compound bodies
     show = sys.stderr.isatty() if progress is None else progress
     sources = [s for s in (cache, bundle) if s is not None] if reuse else []
     results = _reuse(scene, config, indices, sources, reused)

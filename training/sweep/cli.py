@@ -107,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
             scene = load_scene(args.scene or study.user_attrs["scene_source"])
         else:
             scene = load_scene(args.scene or "quay_crane")
+            scene.require_box_pairs("impactnet sweep")  # compound pairs: issue #21
             study = open_study(config, scene)
             if "scene_source" not in study.user_attrs:
                 study.set_user_attr("scene_source", str(args.scene or "quay_crane"))

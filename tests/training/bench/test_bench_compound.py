@@ -1,7 +1,15 @@
-"""The compound benchmark's smoke run: every figure measured, each goal stated."""
+"""The compound benchmark's smoke runs: every figure measured, each goal stated, the report, the
+plot and the `impactnet bench compound` wiring."""
 import pytest
 
+from impactnet.training.bench import compound_detail
 from impactnet.training.bench.compound import measure, report, stacking_poses
+
+#: Two small levels (label, detail, sides, oracle poses, reference poses) for the smoke runs.
+TINY_LEVELS = (("castings (detail 1)", 1, None, 40, 10),
+               ("apertures (detail 2)", 2, None, 10, 5))
+#: A detail-1 goal run of a few poses (poses, repeats, N = 1 calls, FCL poses).
+TINY_GOALS = {True: (200, 1, 5, 3), False: (200, 1, 5, 3)}
 
 
 def test_stacking_poses_are_seeded_and_unit():
@@ -22,18 +30,57 @@ def test_quick_measurement_reports_every_goal():
 def test_cost_against_detail_measures_every_reference_on_the_same_poses(tmp_path):
     pytest.importorskip("fcl")
     pytest.importorskip("mujoco")
-    from impactnet.training.bench.compound_detail import measure_level, plot, report
+    from impactnet.training.bench.compound_refs import REFERENCES
+    from impactnet.training.bench.compound_report import plot
+    from impactnet.training.bench.compound_report import report as page
 
-    rows = [measure_level("castings (detail 1)", 1, None, 40, 10, 1),
-            measure_level("twistlocks, 8 sides", 2, 8, 10, 5, 1)]
+    rows = [compound_detail.measure_level("castings (detail 1)", 1, None, 40, 10, 1),
+            compound_detail.measure_level("twistlocks, 8 sides", 2, 8, 10, 5, 1)]
     for row in rows:
-        for key in ("oracle_us", "oracle_one_us", "fcl_mesh_us", "fcl_convex_us", "mujoco_us"):
+        for key in ["oracle_us", "oracle_one_us"] + [f"{k}_us" for k, _, _ in REFERENCES]:
             assert 0 < row[key] < 1e6, key
+        assert row["ref_poses"] <= row["poses"]
     castings = rows[0]
     # box castings: FCL Box-Box and MuJoCo's box collider find exactly the oracle's part pairs
-    assert castings["fcl_convex_same_set"] == castings["mujoco_same_set"] == 1.0
-    assert castings["mujoco_depth_p99"] < 1e-9
-    text = report(rows, "impactnet bench compound --quick")
+    for key in ("fcl_convex", "mujoco", "mujoco_epa"):
+        errors = castings[f"{key}_errors"]
+        assert errors["same_set"] == errors["rows_ok"] == 1.0, key
+        assert errors["depth_max"] < 1e-9, key
+    # twistlock heads as mesh geoms: MuJoCo's single EPA contact agrees on every pose
+    assert rows[1]["mujoco_epa_errors"]["rows_ok"] == 1.0
+    text = page(rows, measure(200, 1, 5, 3), "impactnet bench compound --quick", 1.0)
     assert "| castings (detail 1) | 40 |" in text
+    assert all(label in text for _, label, _ in REFERENCES)
+    assert "goal <= 15" in text and "goal <= 150" in text and "goal >= 5x" in text
     plot(rows, tmp_path / "cost.png")
     assert (tmp_path / "cost.png").stat().st_size > 10_000
+
+
+def test_detail_two_goal_against_fcl_mesh_is_stated_met_or_not():
+    from impactnet.training.bench.compound_report import GOAL_MESH_RATIO
+    from impactnet.training.bench.compound_report import report as page
+
+    level = {"level": "apertures (detail 2)", "poses": 10, "ref_poses": 5, "oracle_us": 100.0,
+             "oracle_one_us": 1000.0, "contacts_per_pose": 20.0, "fcl_mesh_us": 2000.0}
+    goals = {"poses": 10, "contacts_per_pose": 2.0, "batch_us_per_pose": 10.0, "one_us": 100.0,
+             "fcl_us_per_pose": None}
+    assert f"20x faster (goal >= {GOAL_MESH_RATIO:g}x): NOT met" in page([level], goals, "c", 1)
+    level["fcl_mesh_us"] = 6000.0
+    assert f"60x faster (goal >= {GOAL_MESH_RATIO:g}x): met" in page([level], goals, "c", 1)
+
+
+def test_impactnet_bench_compound_writes_the_table_and_the_plot(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("fcl")
+    pytest.importorskip("mujoco")
+    from impactnet.training.bench.cli import main
+
+    monkeypatch.setattr(compound_detail, "LEVELS", TINY_LEVELS)
+    monkeypatch.setattr(compound_detail, "DETAIL_ONE", TINY_GOALS)
+    monkeypatch.setattr(compound_detail, "QUICK_MIN", 3)
+    image = tmp_path / "images" / "cost.png"
+    assert main(["compound", "--quick", "--out", str(tmp_path), "--plot", str(image)]) == 0
+    text = (tmp_path / "compound.md").read_text(encoding="utf-8")
+    assert f"`impactnet bench compound --quick --out {tmp_path} --plot {image}`" in text
+    assert "goal >= 50x" in text and "| castings (detail 1) | 4 |" in text
+    assert image.stat().st_size > 10_000
+    assert "apertures (detail 2): oracle" in capsys.readouterr().out
