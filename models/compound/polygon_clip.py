@@ -8,7 +8,8 @@ ignored.
 
 Clipping (:func:`clip`) is Sutherland-Hodgman on all polygons at once: each vertex slot emits
 itself where it is inside and the crossing of its outgoing edge where that edge crosses the
-boundary; the emitted points are compacted to the front (stable, so the cyclic order holds).
+boundary; the emitted points are compacted to the front in order (so the cyclic order holds),
+slots past the count are zero.
 A convex polygon cut by one half-plane gains at most one vertex.
 
 Integrals (:func:`moments`): fan triangles from slot 0, each with the closed forms for a
@@ -68,11 +69,12 @@ def clip(polygons: np.ndarray, counts: np.ndarray, coefficients: np.ndarray,
         cut[:, :, P] = np.where(crossing, 0.0, cut[:, :, P])
     emitted = np.stack([polygons, cut], axis=2).reshape(k, 2 * width, 3)
     keep = np.stack([valid & inside, crossing], axis=2).reshape(k, 2 * width)
-    new_counts = keep.sum(axis=1)
-    order = np.argsort(~keep, axis=1, kind="stable")
-    new_width = max(int(new_counts.max(initial=0)), 1)
-    order = order[:, :new_width]
-    return np.take_along_axis(emitted, order[:, :, None], axis=1), new_counts
+    slots = np.cumsum(keep, axis=1)  # 1 + the output slot of each kept point
+    new_counts = slots[:, -1]
+    out = np.zeros((k, max(int(new_counts.max(initial=0)), 1), 3))
+    item, source = np.nonzero(keep)
+    out[item, slots[item, source] - 1] = emitted[item, source]
+    return out, new_counts
 
 
 def moments(polygons: np.ndarray, counts: np.ndarray) -> np.ndarray:
