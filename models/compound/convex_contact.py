@@ -1,4 +1,7 @@
-"""The exact contact of two convex parts, vectorised over m poses of the same two hulls.
+"""The exact contact of two convex parts, vectorised over m rows: poses of the same two hulls
+(:func:`convex_contacts`), or of several pairs of hulls at once (:func:`stacked_contacts`, each
+row naming its hulls in two :class:`~impactnet.models.compound.hull_stack.HullStack`; a row's
+answer is the same bits either way).
 
 The convex counterpart of :func:`impactnet.models.box.exact.box_box`, with its conventions
 (DESIGN.md): the separating-axis test and tie rule of
@@ -21,6 +24,7 @@ from impactnet.models.box.manifold import FACE_INC_CODES, FACE_REF_CODES
 from impactnet.models.compound.convex_face import face_region
 from impactnet.models.compound.convex_sat import EDGE, FACE_A, FACE_B, choose_axis, rotate
 from impactnet.models.compound.hull import Hull
+from impactnet.models.compound.hull_stack import HullStack, stack_hulls
 from impactnet.models.contacts import Contacts
 
 #: Work items (pose x table entries) per chunk of poses: keeps each (chunk, ...) array of the
@@ -28,12 +32,11 @@ from impactnet.models.contacts import Contacts
 CHUNK_ITEMS = 2_000_000
 
 
-def _chunk_rows(hull_a: Hull, hull_b: Hull) -> int:
-    """Poses per chunk for this pair of hulls."""
-    per_pose = (len(hull_a.vertices) * hull_b.n_faces + len(hull_b.vertices) * hull_a.n_faces
-                + hull_a.n_edges * hull_b.n_edges + 3 * (len(hull_a.triangles)
-                                                         + len(hull_b.triangles)))
-    return max(1, CHUNK_ITEMS // per_pose)
+def _chunk_rows(sa: HullStack, sb: HullStack) -> int:
+    """Rows per chunk for these (padded) stacks."""
+    a, b = sa.width, sb.width
+    per_row = (a["V"] * b["F"] + b["V"] * a["F"] + a["E"] * b["E"] + 3 * (a["T"] + b["T"]))
+    return max(1, CHUNK_ITEMS // per_row)
 
 
 def convex_contacts(hull_a: Hull, hull_b: Hull, position_a, rot_a, position_b,
@@ -55,34 +58,45 @@ def convex_contacts(hull_a: Hull, hull_b: Hull, position_a, rot_a, position_b,
         m rows, world frame, normal from A's part towards B's.
     """
     m = len(position_a)
-    step = _chunk_rows(hull_a, hull_b)
-    pieces = [_solve(hull_a, hull_b, position_a[s:s + step], rot_a[s:s + step],
-                     position_b[s:s + step], rot_b[s:s + step]) for s in range(0, m, step)]
+    return stacked_contacts(stack_hulls((hull_a,)), np.zeros(m, np.int64),
+                            stack_hulls((hull_b,)), np.zeros(m, np.int64), position_a, rot_a,
+                            position_b, rot_b)
+
+
+def stacked_contacts(stack_a: HullStack, index_a, stack_b: HullStack, index_b, position_a,
+                     rot_a, position_b, rot_b) -> Contacts:
+    """Contacts of m rows, row i of A's part ``stack_a.hulls[index_a[i]]`` and B's part
+    ``stack_b.hulls[index_b[i]]`` (arguments otherwise as :func:`convex_contacts`)."""
+    m = len(position_a)
+    step = _chunk_rows(stack_a, stack_b)
+    pieces = [_solve(stack_a, index_a[s:s + step], stack_b, index_b[s:s + step],
+                     position_a[s:s + step], rot_a[s:s + step], position_b[s:s + step],
+                     rot_b[s:s + step]) for s in range(0, m, step)]
     if len(pieces) == 1:
         return pieces[0]
     return Contacts(**{name: np.concatenate([p.arrays()[name] for p in pieces])
                        for name in pieces[0].arrays()})
 
 
-def _solve(hull_a, hull_b, position_a, rot_a, position_b, rot_b) -> Contacts:
-    """One chunk of :func:`convex_contacts`."""
+def _solve(sa, ia, sb, ib, position_a, rot_a, position_b, rot_b) -> Contacts:
+    """One chunk of :func:`stacked_contacts`."""
     ra_t = rot_a.transpose(0, 2, 1)
     t = np.einsum("nij,nj->ni", ra_t, position_b - position_a)
     rot = ra_t @ rot_b
-    choice = choose_axis(hull_a, hull_b, t, rot)
-    out = _empty(hull_a, hull_b, t, rot)
+    choice = choose_axis(sa, sb, t, rot, ia, ib)
+    out = _empty(sa, ia, sb, ib, t, rot)
     out["normal"] = choice.normal.copy()
     for kind in (FACE_A, FACE_B):
         rows = np.flatnonzero(choice.colliding & (choice.kind == kind))
         if len(rows):
-            _face_rows(out, rows, kind, hull_a, hull_b, t, rot, choice)
+            _face_rows(out, rows, kind, (sa, ia, sb, ib), t, rot, choice)
     rows = np.flatnonzero(choice.colliding & (choice.kind == EDGE))
     if len(rows):
         out["point"][rows] = choice.edge_point[rows]
         out["depth"][rows] = choice.depth[rows]
         out["contact_type_code"][rows] = ct.EDGE_EDGE
-        out["feature_a"][rows] = hull_a.edge_id(choice.edge_a[rows])
-        out["feature_b"][rows] = hull_b.edge_id(choice.edge_b[rows])
+        out["feature_a"][rows] = sa.n_faces[ia[rows]] + choice.edge_a[rows]  # edge ids
+        out["feature_b"][rows] = sb.n_faces[ib[rows]] + choice.edge_b[rows]
         out["manifold_points"][rows, 0] = choice.edge_point[rows]
         out["manifold_depths"][rows, 0] = choice.depth[rows]
         out["manifold_count"][rows] = 1
@@ -90,11 +104,11 @@ def _solve(hull_a, hull_b, position_a, rot_a, position_b, rot_b) -> Contacts:
     return _to_world(out, position_a, rot_a)
 
 
-def _empty(hull_a, hull_b, t, rot) -> dict:
+def _empty(sa, ia, sb, ib, t, rot) -> dict:
     """The answer arrays of m separated rows (point: the midpoint of the hulls' centres)."""
     m = len(t)
-    centre_a = hull_a.vertices.mean(axis=0)
-    centre_b = t + rotate_rows(rot, hull_b.vertices.mean(axis=0))
+    centre_a = sa.centre[ia]
+    centre_b = t + rotate(rot, sb.centre[ib][:, None, :])[:, 0]
     return {"depth": np.zeros(m), "point": 0.5 * (centre_a + centre_b),
             "contact_type_code": np.zeros(m, np.int8),
             "feature_a": np.full(m, -1, np.int32), "feature_b": np.full(m, -1, np.int32),
@@ -110,17 +124,20 @@ def rotate_rows(rot: np.ndarray, v: np.ndarray) -> np.ndarray:
         "nij,nj->ni", rot, v)
 
 
-def _face_rows(out, rows, kind, hull_a, hull_b, t, rot, choice) -> None:
-    """Fill the face-axis rows of one kind (reference face on A or on B)."""
+def _face_rows(out, rows, kind, stacks, t, rot, choice) -> None:
+    """Fill the face-axis rows of one kind (reference face on A or on B); ``stacks`` is
+    (stack_a, index_a, stack_b, index_b)."""
+    sa, ia, sb, ib = stacks
     t_r, rot_r = t[rows], rot[rows]
     if kind == FACE_A:
-        ref, inc, rot_inc = hull_a, hull_b, rot_r
-        x_inc = t_r[:, None, :] + rotate(rot_r, hull_b.vertices)
+        ref, rid, inc, iid, rot_inc = sa, ia[rows], sb, ib[rows], rot_r
+        x_inc = t_r[:, None, :] + rotate(rot_r, sb.vertices[iid])
     else:  # B's face: work in B's frame, x' = R^T (x - t)
-        ref, inc, rot_inc = hull_b, hull_a, rot_r.transpose(0, 2, 1)
-        x_inc = rotate(rot_inc, hull_a.vertices) - rotate_rows(rot_inc, t_r)[:, None, :]
-    region = face_region(ref, choice.face[rows], inc, x_inc, rot_inc, choice.depth[rows],
-                         choice.scale[rows])
+        ref, rid, inc, iid = sb, ib[rows], sa, ia[rows]
+        rot_inc = rot_r.transpose(0, 2, 1)
+        x_inc = rotate(rot_inc, sa.vertices[iid]) - rotate_rows(rot_inc, t_r)[:, None, :]
+    region = face_region(ref, rid, choice.face[rows], inc, iid, x_inc, rot_inc,
+                         choice.depth[rows], choice.scale[rows])
     point, manifold = region.point, region.manifold
     if kind == FACE_B:  # back to A's frame
         point = rotate_rows(rot_r, point) + t_r

@@ -33,7 +33,7 @@ from impactnet.models.box.manifold import SNAP_TOL_REL
 from impactnet.models.box.pressure import PRESSURE_FLOOR_REL, REGION_DEPTH_TOL_REL
 from impactnet.models.compound import polygon_clip as pc
 from impactnet.models.compound.convex_sat import dot, rotate
-from impactnet.models.compound.hull import Hull
+from impactnet.models.compound.hull_stack import HullStack
 from impactnet.models.contacts import MAX_MANIFOLD_POINTS
 
 
@@ -51,35 +51,38 @@ class FaceRegion:
     manifold_count: np.ndarray  # (m,)
 
 
-def _plane_frames(ref: Hull, face: np.ndarray):
+def _plane_frames(ref: HullStack, rid: np.ndarray, face: np.ndarray):
     """Per pose: normal n (m, 3), offset h (m,), origin o (m, 3), in-plane axes e_u, e_w."""
-    frames = ref.face_frames[face]
-    return (ref.face_normals[face], ref.face_offsets[face], frames[:, 0], frames[:, 1],
-            frames[:, 2])
+    frames = ref.face_frames[rid, face]
+    return (ref.face_normals[rid, face], ref.face_offsets[rid, face], frames[:, 0],
+            frames[:, 1], frames[:, 2])
 
 
-def _clip_to_face(ref, face, polygons, counts, item_row):
+def _clip_to_face(ref: HullStack, rid, face, polygons, counts, item_row):
     """Polygons of items (k) clipped to ``p >= 0`` and their rows' reference faces' sides
     (:attr:`Hull.side_planes`, precomputed in each face's frame)."""
     polygons, counts = pc.clip(polygons, counts, np.array([0.0, 0.0, 1.0, 0.0]), True)
-    planes = ref.side_planes[face[item_row]]  # (k, M, 4)
-    for side in range(int(ref.face_counts[face].max(initial=0))):
+    planes = ref.side_planes[rid[item_row], face[item_row]]  # (k, M, 4)
+    for side in range(int(ref.face_counts[rid, face].max(initial=0))):
         if len(counts) == 0:
             break
         polygons, counts = pc.clip(polygons, counts, planes[:, side])
     return polygons, counts
 
 
-def _region(ref, face, frames, inc: Hull, rot_inc, uwp):
+def _region(ref: HullStack, rid, face, frames, inc: HullStack, iid, rot_inc, uwp):
     """Moments (4, m) and the deepest pressure (m,) of the regions."""
     m = len(face)
     n = frames[0]
-    front = dot(rotate(rot_inc, inc.face_normals), n[:, None]) < 0.0  # (m, F_inc)
-    tri_p = uwp[:, :, pc.P][:, inc.triangles]  # (m, T, 3)
-    reach = front[:, inc.triangle_face] & (tri_p.max(axis=2) >= 0.0)
+    front = dot(rotate(rot_inc, inc.face_normals[iid]), n[:, None]) < 0.0  # (m, F_inc)
+    triangles = inc.triangles[iid]  # (m, T, 3)
+    tri_p = np.take_along_axis(uwp[:, :, pc.P], triangles.reshape(m, -1), axis=1).reshape(
+        triangles.shape)
+    reach = (np.take_along_axis(front, inc.triangle_face[iid], axis=1)
+             & (tri_p.max(axis=2) >= 0.0) & inc.triangle_valid[iid])
     row, tri = np.nonzero(reach)
-    polygons = uwp[row[:, None], inc.triangles[tri]]  # (k, 3, 3)
-    polygons, counts = _clip_to_face(ref, face, polygons, np.full(len(row), 3), row)
+    polygons = uwp[row[:, None], triangles[row, tri]]  # (k, 3, 3)
+    polygons, counts = _clip_to_face(ref, rid, face, polygons, np.full(len(row), 3), row)
     per_item = pc.moments(polygons, counts)
     totals = np.stack([np.bincount(row, per_item[i], minlength=m) for i in range(4)])
     slot = np.arange(polygons.shape[1])[None, :] < counts[:, None]
@@ -89,37 +92,38 @@ def _region(ref, face, frames, inc: Hull, rot_inc, uwp):
     return totals, deepest, front
 
 
-def _incident_feature(inc: Hull, rot_inc, n, uwp, tau, scale):
+def _incident_feature(inc: HullStack, iid, rot_inc, n, uwp, tau, scale):
     """(feature id, rank, incident face) per pose (module docstring)."""
     m = len(n)
     pressure = uwp[:, :, pc.P]
     deepest = np.argmax(pressure, axis=1)
-    facing = dot(rotate(rot_inc, inc.face_normals), n[:, None])  # (m, F_inc)
-    facing = np.where(inc.vertex_faces[deepest], facing, np.inf)
+    facing = dot(rotate(rot_inc, inc.face_normals[iid]), n[:, None])  # (m, F_inc)
+    facing = np.where(inc.vertex_faces[iid, deepest], facing, np.inf)
     face = np.argmin(facing, axis=1)
-    loops, counts = inc.face_loops[face], inc.face_counts[face]
+    loops, counts = inc.face_loops[iid, face], inc.face_counts[iid, face]
     slot = np.arange(loops.shape[1])[None, :] < counts[:, None]
     depth = np.where(slot, np.take_along_axis(pressure, loops, axis=1) - tau[:, None], -np.inf)
     touching = (depth >= -(SNAP_TOL_REL * scale)[:, None]).sum(axis=1)
     order = np.argsort(-depth, axis=1, kind="stable")
     first = loops[np.arange(m), order[:, 0]]
     second = loops[np.arange(m), order[:, min(1, loops.shape[1] - 1)]]
-    edge = inc.edge_of_vertices[first, second]
+    edge = inc.edge_of_vertices[iid, first, second]
+    faces, edges = inc.n_faces[iid], inc.n_edges[iid]  # feature ids: faces, edges, vertices
     feature = np.where(touching >= 3, face,
-                       np.where((touching == 2) & (edge >= 0), inc.edge_id(edge),
-                                inc.vertex_id(first)))
+                       np.where((touching == 2) & (edge >= 0), faces + edge,
+                                faces + edges + first))
     rank = np.where(touching >= 3, 3, np.where((touching == 2) & (edge >= 0), 2, 1))
     return feature, rank, face
 
 
-def _manifold(ref, face, frames, inc: Hull, inc_face, uwp, tau):
+def _manifold(ref: HullStack, rid, face, frames, inc: HullStack, iid, inc_face, uwp, tau):
     """Mid-surface points (m, 8, 3), depths (m, 8) and counts (m,) of the clipped incident
     face."""
     m = len(face)
     n, _, origin, e_u, e_w = frames
-    loops, counts = inc.face_loops[inc_face], inc.face_counts[inc_face]
+    loops, counts = inc.face_loops[iid, inc_face], inc.face_counts[iid, inc_face]
     polygons = np.take_along_axis(uwp, loops[:, :, None], axis=1)
-    polygons, counts = _clip_to_face(ref, face, polygons, counts, np.arange(m))
+    polygons, counts = _clip_to_face(ref, rid, face, polygons, counts, np.arange(m))
     width = polygons.shape[1]
     pick = (np.arange(MAX_MANIFOLD_POINTS)[None, :] * np.maximum(counts, 1)[:, None]
             // MAX_MANIFOLD_POINTS)
@@ -134,18 +138,19 @@ def _manifold(ref, face, frames, inc: Hull, inc_face, uwp, tau):
     return np.where(valid[:, :, None], points, 0.0), depth, count
 
 
-def face_region(ref: Hull, face: np.ndarray, inc: Hull, x_inc: np.ndarray, rot_inc: np.ndarray,
-                sat_depth: np.ndarray, scale: np.ndarray) -> FaceRegion:
+def face_region(ref: HullStack, rid: np.ndarray, face: np.ndarray, inc: HullStack,
+                iid: np.ndarray, x_inc: np.ndarray, rot_inc: np.ndarray, sat_depth: np.ndarray,
+                scale: np.ndarray) -> FaceRegion:
     """The face contacts of m poses (module docstring), in the reference hull's frame.
 
     Parameters
     ----------
-    ref : Hull
-        The hull of the reference face.
+    ref : HullStack
+        The hulls of the reference faces; ``rid`` (m,) each row's.
     face : ndarray of int, shape (m,)
         The reference face of each pose.
-    inc : Hull
-        The incident hull.
+    inc : HullStack
+        The incident hulls; ``iid`` (m,) each row's.
     x_inc : ndarray, shape (m, V_inc, 3)
         The incident hull's vertices in the reference frame (metres).
     rot_inc : ndarray, shape (m, 3, 3)
@@ -156,12 +161,12 @@ def face_region(ref: Hull, face: np.ndarray, inc: Hull, x_inc: np.ndarray, rot_i
         The pair's scale (metres).
     """
     tau = PRESSURE_FLOOR_REL * scale
-    frames = _plane_frames(ref, face)
+    frames = _plane_frames(ref, rid, face)
     n, h, origin, e_u, e_w = frames
     rel = x_inc - origin[:, None]
     uwp = np.stack([dot(rel, e_u[:, None]), dot(rel, e_w[:, None]),
                     h[:, None] - dot(x_inc, n[:, None]) + tau[:, None]], axis=2)
-    totals, deepest, _ = _region(ref, face, frames, inc, rot_inc, uwp)
+    totals, deepest, _ = _region(ref, rid, face, frames, inc, iid, rot_inc, uwp)
     found = totals[0] > 0.0
     safe = np.where(found, totals[0], 1.0)
     offset = np.maximum(0.5 * (totals[3] / safe) - 0.5 * tau, 0.0)
@@ -172,8 +177,9 @@ def face_region(ref: Hull, face: np.ndarray, inc: Hull, x_inc: np.ndarray, rot_i
     fallback = x_inc[np.arange(len(face)), top] + 0.5 * top_depth[:, None] * n
     region_depth = np.maximum(deepest - tau, 0.0)
     shallower = found & (region_depth < sat_depth - REGION_DEPTH_TOL_REL * scale)
-    feature, rank, inc_face = _incident_feature(inc, rot_inc, n, uwp, tau, scale)
-    manifold, manifold_depth, count = _manifold(ref, face, frames, inc, inc_face, uwp, tau)
+    feature, rank, inc_face = _incident_feature(inc, iid, rot_inc, n, uwp, tau, scale)
+    manifold, manifold_depth, count = _manifold(ref, rid, face, frames, inc, iid, inc_face, uwp,
+                                                tau)
     point = np.where(found[:, None], point, fallback)
     depth = np.where(shallower, region_depth, sat_depth)
     empty = count == 0  # nothing of the incident face reaches: the point alone

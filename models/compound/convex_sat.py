@@ -1,4 +1,7 @@
-"""Separating-axis test of two convex polyhedra, vectorised over m poses of one pair of hulls.
+"""Separating-axis test of two convex polyhedra, vectorised over m rows: poses of one pair of
+hulls, or of several pairs at once (each row names its hulls in two
+:class:`~impactnet.models.compound.hull_stack.HullStack`; a row's answer does not depend on the
+others, nor on the padding).
 
 Frame: A's body frame. Hull A's vertices are as built (:mod:`impactnet.models.compound.hull`);
 hull B's are ``y = R v + t`` for each pose. Candidate axes:
@@ -43,6 +46,7 @@ from impactnet.models.box.sat import (
     TIE_TOL_REL,
 )
 from impactnet.models.compound.hull import Hull
+from impactnet.models.compound.hull_stack import HullStack, stack_hulls
 
 #: Kinds of contact axis.
 FACE_A, FACE_B, EDGE = 0, 1, 2
@@ -76,39 +80,49 @@ def cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def rotate(rot: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``R v`` for rotations (m, 3, 3) and vectors (K, 3): shape (m, K, 3)."""
-    return np.stack([dot(rot[:, None, i, :], v[None]) for i in range(3)], axis=-1)
+    """``R v`` for rotations (m, 3, 3) and vectors (K, 3), or each row's own (m, K, 3): shape
+    (m, K, 3)."""
+    v = v[None] if v.ndim == 2 else v
+    return np.stack([dot(rot[:, None, i, :], v) for i in range(3)], axis=-1)
 
 
-def face_separations(hull_a: Hull, hull_b: Hull, y_b: np.ndarray, t: np.ndarray,
+def stacked(hulls: Hull | HullStack, index, m: int) -> tuple[HullStack, np.ndarray]:
+    """(stack, row index (m,)) of a hull (every row) or of a stack and its rows' indices."""
+    if isinstance(hulls, Hull):
+        return stack_hulls((hulls,)), np.zeros(m, np.int64)
+    return hulls, np.asarray(index, np.int64)
+
+
+def face_separations(sa: HullStack, ia, sb: HullStack, ib, y_b: np.ndarray, t: np.ndarray,
                      rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Separations along A's faces (m, F_a) and B's faces (m, F_b), metres."""
-    n_a, h_a = hull_a.face_normals, hull_a.face_offsets
-    sep_a = dot(y_b[:, :, None, :], n_a[None, None]).min(axis=1) - h_a
-    n_b = rotate(rot, hull_b.face_normals)  # (m, F_b, 3)
-    h_b = hull_b.face_offsets + dot(n_b, t[:, None, :])
-    sep_b = dot(hull_a.vertices[None, :, None, :], n_b[:, None]).min(axis=1) - h_b
+    n_a, h_a = sa.face_normals[ia], sa.face_offsets[ia]
+    sep_a = dot(y_b[:, :, None, :], n_a[:, None]).min(axis=1) - h_a
+    n_b = rotate(rot, sb.face_normals[ib])  # (m, F_b, 3)
+    h_b = sb.face_offsets[ib] + dot(n_b, t[:, None, :])
+    sep_b = dot(sa.vertices[ia][:, :, None, :], n_b[:, None]).min(axis=1) - h_b
     return sep_a, sep_b
 
 
-def edge_candidates(hull_a: Hull, hull_b: Hull, rot: np.ndarray):
+def edge_candidates(sa: HullStack, ia, sb: HullStack, ib, rot: np.ndarray):
     """(row, edge_a, edge_b) of the edge pairs whose Gauss-map arcs cross, row-major."""
-    a = hull_a.face_normals[hull_a.edge_faces[:, 0]]  # (E_a, 3)
-    b = hull_a.face_normals[hull_a.edge_faces[:, 1]]
-    b_x_a = cross(b, a)
-    n1, n2 = hull_b.face_normals[hull_b.edge_faces[:, 0]], hull_b.face_normals[
-        hull_b.edge_faces[:, 1]]
-    c, d = -rotate(rot, n1), -rotate(rot, n2)  # (m, E_b, 3): B's arcs, negated
-    d_x_c = rotate(rot, cross(n2, n1))  # = d x c
-    cba = dot(c[:, None], b_x_a[None, :, None])  # (m, E_a, E_b)
-    dba = dot(d[:, None], b_x_a[None, :, None])
-    adc = dot(a[None, :, None], d_x_c[:, None])
-    bdc = dot(b[None, :, None], d_x_c[:, None])
-    crossing = (cba * dba < 0.0) & (adc * bdc < 0.0) & (cba * bdc > 0.0)
+    normals_a = sa.edge_normals[ia]  # (m, E_a, 2, 3)
+    a, b = normals_a[:, :, 0], normals_a[:, :, 1]
+    b_x_a = sa.edge_arcs[ia]
+    normals_b = sb.edge_normals[ib]
+    c, d = -rotate(rot, normals_b[:, :, 0]), -rotate(rot, normals_b[:, :, 1])  # B's, negated
+    d_x_c = rotate(rot, sb.edge_arcs[ib])  # = d x c
+    cba = dot(c[:, None], b_x_a[:, :, None])  # (m, E_a, E_b)
+    dba = dot(d[:, None], b_x_a[:, :, None])
+    adc = dot(a[:, :, None], d_x_c[:, None])
+    bdc = dot(b[:, :, None], d_x_c[:, None])
+    crossing = ((cba * dba < 0.0) & (adc * bdc < 0.0) & (cba * bdc > 0.0)
+                & sa.edge_valid[ia][:, :, None] & sb.edge_valid[ib][:, None, :])
     return np.nonzero(crossing)
 
 
-def edge_axes(hull_a: Hull, hull_b: Hull, y_b: np.ndarray, scale: np.ndarray, rows, ea, eb):
+def edge_axes(sa: HullStack, ia, sb: HullStack, ib, y_b: np.ndarray, scale: np.ndarray, rows,
+              ea, eb):
     """Axes, separations and closest points of the candidate edge pairs (k items).
 
     Returns
@@ -116,18 +130,19 @@ def edge_axes(hull_a: Hull, hull_b: Hull, y_b: np.ndarray, scale: np.ndarray, ro
     axis (k, 3) unit away from A, separation (k,) metres, usable (k,) bool (not parallel),
     inside (k,) bool (closest points inside both edges), midpoint (k, 3).
     """
-    p0 = hull_a.vertices[hull_a.edges[ea, 0]]
-    p1 = hull_a.vertices[hull_a.edges[ea, 1]]
-    q0 = y_b[rows, hull_b.edges[eb, 0]]
-    q1 = y_b[rows, hull_b.edges[eb, 1]]
+    hull_a, hull_b = ia[rows], ib[rows]
+    ends_a, ends_b = sa.edges[hull_a, ea], sb.edges[hull_b, eb]
+    p0 = sa.vertices[hull_a, ends_a[:, 0]]
+    p1 = sa.vertices[hull_a, ends_a[:, 1]]
+    q0 = y_b[rows, ends_b[:, 0]]
+    q1 = y_b[rows, ends_b[:, 1]]
     da, db = p1 - p0, q1 - q0
     axis = cross(da, db)
     length = np.sqrt(dot(axis, axis))
     la, lb = np.sqrt(dot(da, da)), np.sqrt(dot(db, db))
     usable = length > EDGE_SKEW_TOL_REL * scale[rows] * np.minimum(la, lb)
     axis = axis / np.where(usable, length, 1.0)[:, None]
-    centre_a = hull_a.vertices.mean(axis=0)
-    flip = dot(axis, p0 - centre_a) < 0.0
+    flip = dot(axis, p0 - sa.centre[hull_a]) < 0.0
     axis = np.where(flip[:, None], -axis, axis)
     separation = dot(axis, q0 - p0)
     s, u = _closest_parameters(p0, da, q0, db)
@@ -161,29 +176,35 @@ def _first_per_row(rows: np.ndarray, key: np.ndarray, m: int) -> np.ndarray:
     return best
 
 
-def choose_axis(hull_a: Hull, hull_b: Hull, t: np.ndarray, rot: np.ndarray) -> AxisChoice:
-    """The contact axis of m poses (module docstring).
+def choose_axis(hull_a: Hull | HullStack, hull_b: Hull | HullStack, t: np.ndarray,
+                rot: np.ndarray, index_a=None, index_b=None) -> AxisChoice:
+    """The contact axis of m rows (module docstring).
 
     Parameters
     ----------
-    hull_a, hull_b : Hull
-        The two parts, each in its body's frame.
+    hull_a, hull_b : Hull or HullStack
+        The parts, each in its body's frame: one hull for every row, or a stack whose hull of
+        row i is ``index_a[i]`` (``index_b[i]``).
     t : ndarray, shape (m, 3)
         B's body origin in A's body frame (metres).
     rot : ndarray, shape (m, 3, 3)
         B's body rotation in A's body frame.
+    index_a, index_b : array_like of int, shape (m,), optional
+        Each row's hull in a stack.
     """
     m = len(t)
-    scale = np.full(m, hull_a.half_extent + hull_b.half_extent)
-    y_b = t[:, None, :] + rotate(rot, hull_b.vertices)
-    sep_a, sep_b = face_separations(hull_a, hull_b, y_b, t, rot)
-    rows, ea, eb = edge_candidates(hull_a, hull_b, rot)
-    axis, sep_e, usable, inside, mid = edge_axes(hull_a, hull_b, y_b, scale, rows, ea, eb)
+    sa, ia = stacked(hull_a, index_a, m)
+    sb, ib = stacked(hull_b, index_b, m)
+    scale = sa.half_extent[ia] + sb.half_extent[ib]
+    y_b = t[:, None, :] + rotate(rot, sb.vertices[ib])
+    sep_a, sep_b = face_separations(sa, ia, sb, ib, y_b, t, rot)
+    rows, ea, eb = edge_candidates(sa, ia, sb, ib, rot)
+    axis, sep_e, usable, inside, mid = edge_axes(sa, ia, sb, ib, y_b, scale, rows, ea, eb)
     rows, ea, eb, axis, sep_e, inside, mid = (x[usable] for x in
                                                (rows, ea, eb, axis, sep_e, inside, mid))
-    face_sep = np.concatenate([sep_a, sep_b], axis=1)  # (m, F_a + F_b)
-    normals = np.concatenate([np.broadcast_to(hull_a.face_normals, (m, hull_a.n_faces, 3)),
-                              -rotate(rot, hull_b.face_normals)], axis=1)
+    faces_a = sa.face_normals.shape[1]
+    face_sep = np.concatenate([sep_a, sep_b], axis=1)  # (m, F_a + F_b), padded counts
+    normals = np.concatenate([sa.face_normals[ia], -rotate(rot, sb.face_normals[ib])], axis=1)
     max_sep = face_sep.max(axis=1)
     np.maximum.at(max_sep, rows, sep_e)
     colliding = max_sep <= CONTACT_TOL_REL * scale
@@ -193,8 +214,8 @@ def choose_axis(hull_a: Hull, hull_b: Hull, t: np.ndarray, rot: np.ndarray) -> A
     normal = normals[np.arange(m), face]
     wins, item = _edge_winner(rows, axis, sep_e, inside, normal, best, scale)
     wins &= colliding
-    kind = np.where(wins, EDGE, np.where(face < hull_a.n_faces, FACE_A, FACE_B))
-    own_face = np.where(face < hull_a.n_faces, face, face - hull_a.n_faces)
+    kind = np.where(wins, EDGE, np.where(face < faces_a, FACE_A, FACE_B))
+    own_face = np.where(face < faces_a, face, face - faces_a)
     choice = AxisChoice(colliding, kind, np.where(wins, -1, own_face),
                         np.where(colliding, np.maximum(best, 0.0), 0.0), normal,
                         np.full(m, -1), np.full(m, -1), np.zeros((m, 3)), scale)

@@ -12,8 +12,9 @@ Stages, for N poses of one pair of bodies (A with ``P_a`` parts, B with ``P_b``)
    (pose, part_a, part_b) rows, pose-major.
 3. Narrowphase: one call of the box solver (:func:`impactnet.models.box.exact.box_box`) on all
    surviving pairs of box parts, one call of the convex solver
-   (:func:`impactnet.models.compound.convex_contact.convex_contacts`) per pair of parts with a
-   convex one; the conventions hold for every part contact (normal from A's part towards B's,
+   (:func:`impactnet.models.compound.convex_contact.stacked_contacts`) per pair of size classes
+   of the parts (:func:`impactnet.models.compound.hull_stack.size_classes`) on the pairs with a
+   convex part; the conventions hold for every part contact (normal from A's part towards B's,
    the centre of pressure as the point, DESIGN.md). Features are int32: box ids for box
    parts, hull ids for convex ones.
 4. Filter: a part contact whose touched surface one body covers with its other parts is
@@ -35,7 +36,8 @@ import numpy as np
 from impactnet.models.box.exact import box_box
 from impactnet.models.compound.body_table import body_table
 from impactnet.models.compound.broadphase import broadphase
-from impactnet.models.compound.convex_contact import convex_contacts
+from impactnet.models.compound.convex_contact import stacked_contacts
+from impactnet.models.compound.hull_stack import size_classes
 from impactnet.models.contacts import Contacts
 from impactnet.models.geometry.rotations import quaternion_to_matrix, validate_quaternion
 
@@ -138,7 +140,7 @@ def _joined(blocks: list[PartContacts]) -> PartContacts:
 
 def _narrowphase(pose, i, j, body_a, body_b) -> Contacts:
     """The exact contact of every surviving part pair: box pairs through the box solver in one
-    call, every other pair of parts through the convex solver, one call per pair of parts;
+    call, the others through the convex solver, one call per pair of the parts' size classes;
     the rows in the order of the survivors."""
     pos_a, q_a, rot_a, table_a = body_a
     pos_b, q_b, rot_b, table_b = body_b
@@ -150,14 +152,16 @@ def _narrowphase(pose, i, j, body_a, body_b) -> Contacts:
     pieces = [(rows, _box_pairs(table_a.size[ia], centre_a, q_a[at], table_b.size[jb],
                                 centre_b, q_b[at]))]
     others = np.flatnonzero(~both)
-    count_b = len(table_b.parts)
-    pair_key = i[others].astype(np.int64) * count_b + j[others]
-    for key in np.unique(pair_key):
-        rows = others[pair_key == key]
-        at = pose[rows]
-        pieces.append((rows, convex_contacts(table_a.hulls[key // count_b],
-                                             table_b.hulls[key % count_b], pos_a[at],
-                                             rot_a[at], pos_b[at], rot_b[at])))
+    classes_a, classes_b = size_classes(table_a.hulls), size_classes(table_b.hulls)
+    ia, jb = i[others], j[others]
+    pair_class = classes_a.klass[ia] * len(classes_b.stacks) + classes_b.klass[jb]
+    for key in np.unique(pair_class):  # one call per pair of size classes
+        take = pair_class == key
+        rows, at = others[take], pose[others[take]]
+        pieces.append((rows, stacked_contacts(
+            classes_a.stacks[key // len(classes_b.stacks)], classes_a.slot[ia[take]],
+            classes_b.stacks[key % len(classes_b.stacks)], classes_b.slot[jb[take]],
+            pos_a[at], rot_a[at], pos_b[at], rot_b[at])))
     return _in_order(pieces, len(pose))
 
 
