@@ -3,7 +3,9 @@
 Lifespan: the scene, the learned bundle (checksums, scene hash, smoke test) and the predictors
 are loaded and warmed up in a worker thread (:mod:`impactnet.service.state`), in the background by
 default, so /healthz answers at once and /readyz says 503 until the state is installed;
-leaving the lifespan (shutdown) turns /readyz to 503 again. The admin reload route
+leaving the lifespan (shutdown) turns /readyz to 503 again. Where the bundle folder is a store,
+the lifespan also runs its follower (:mod:`impactnet.service.store_follow`) and cancels it on
+shutdown. The admin reload route
 (:mod:`impactnet.service.api.routers.admin`) is included only when an admin token is configured.
 """
 from __future__ import annotations
@@ -18,13 +20,14 @@ from fastapi.openapi.utils import get_openapi
 from impactnet import __version__
 from impactnet.service.api import errors
 from impactnet.service.api.middleware import ConcurrencyLimit, RequestContext
-from impactnet.service.api.routers import admin, batch, contact, health, metrics, models
+from impactnet.service.api.routers import admin, batch, contact, docs, health, metrics, models
 from impactnet.service.api.schemas import BatchRequest, ContactRequest, ReloadRequest
 from impactnet.service.limits.body import BodyReader
 from impactnet.service.predictors import ServingState
 from impactnet.service.reload import Reloader
 from impactnet.service.runtime import Runtime
 from impactnet.service.settings import Settings
+from impactnet.service.store_follow import follow
 
 log = logging.getLogger("impactnet.service")
 
@@ -57,7 +60,8 @@ KiB for a single pair, 32 MiB for a JSON batch, 64 MiB for npz), 408 `body_timeo
 did not arrive within `body_timeout_s`), 409 mode not served (no bundle), 503 not ready /
 draining / overloaded (no compute slot, or no room in the memory budget; Retry-After),
 415/406 media types. `POST /v1/admin/reload` exists only when an admin token is configured.
-Every response carries `X-Request-ID` (yours if you sent a sane one); /v1 answers carry
+Every response carries `X-Request-ID` (yours if you sent a sane one) and `X-Replica` (the
+replica that answered, GET /v1/models: `replica`); /v1 answers carry
 `X-Model-Version`.
 """ + batch.LAYOUT
 
@@ -92,24 +96,28 @@ def create_app(settings: Settings | None = None, state: ServingState | None = No
     async def lifespan(app: FastAPI):
         runtime.draining = False  # a (re)start serves again; test clients re-enter it
         task = asyncio.create_task(runtime.load(state))
+        following = asyncio.create_task(follow(runtime, app.state.reloader, task))
         if not settings.load_in_background:
             await task
         try:
             yield
         finally:
             runtime.begin_drain()
-            if not task.done():
-                task.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await task
+            for running in (following, task):  # the follower first: it awaits the load
+                if not running.done():
+                    running.cancel()
+                    with contextlib.suppress(asyncio.CancelledError):
+                        await running
+            runtime.follower = None
 
     app = FastAPI(title="impactnet", version=__version__, description=DESCRIPTION,
-                  lifespan=lifespan)
+                  lifespan=lifespan, docs_url=None, redoc_url=None)  # offline: routers.docs
     app.state.runtime = runtime
     app.state.reloader = Reloader(runtime)
     errors.install(app)
     admin_enabled = bool(settings.admin_token and settings.admin_token.get_secret_value())
-    for module in (contact, batch, models, health, metrics) + ((admin,) if admin_enabled else ()):
+    routers = (contact, batch, models, health, metrics, docs)
+    for module in routers + ((admin,) if admin_enabled else ()):
         app.include_router(module.router)
     # add_middleware prepends: the last one added is the outermost.
     app.add_middleware(ConcurrencyLimit, runtime=runtime)

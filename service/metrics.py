@@ -64,6 +64,17 @@ class Metrics:
         self.reloads = Counter(
             "impactnet_bundle_reloads", "Admin bundle reloads by result (ok, failed) and the "
             "step that failed.", ["result", "step"], registry=r)
+        self.follows = Counter(
+            "impactnet_store_follows", "New store versions installed by following the store's "
+            "'current' pointer.", registry=r)
+        self.follow_failures = Counter(
+            "impactnet_store_follow_failures", "Failed attempts to follow the store's 'current' "
+            "pointer, by the step that failed (the old version kept serving).", ["step"],
+            registry=r)
+        self.store_info = Gauge(
+            "impactnet_store_info", "The followed bundle store: 1 for the version its "
+            "'current' named at the last poll and the store version this replica serves.",
+            ["current", "served"], registry=r)
         self.ready = Gauge("impactnet_ready", "1 when /readyz answers 200.", registry=r)
         self.model_info = Gauge(
             "impactnet_model_info", "The serving state: 1 for the current model version.",

@@ -18,7 +18,10 @@ request
    that read the old state finishes with it; every later request reads the new one.
 
 Reloads are serialised by a lock: a second one waits for the first, then builds on the
-state that the first installed. Steps 1-3 fail with 422 (the bundle is at fault).
+state that the first installed. Steps 1-3 fail with 422 (the bundle is at fault). A replica
+that follows a bundle store (:mod:`impactnet.service.store_follow`) loads each new version
+through this same method (``source="store"``), under the same lock; its outcomes are counted
+by the follower's own metrics, not by ``impactnet_bundle_reloads_total``.
 
 Deadline: a reload has ``reload_timeout_s`` from its request. The route stops waiting then
 and answers 422 naming the step in progress; the worker thread, which cannot be stopped,
@@ -52,9 +55,11 @@ class Reloader:
     def _at(self, step: str) -> None:
         self.step = step
 
-    def reload(self, requested: str | None, deadline: float | None = None) -> dict:
+    def reload(self, requested: str | None, deadline: float | None = None,
+               source: str = "admin") -> dict:
         """Reload from ``requested`` (None: the configured path) before ``deadline`` (a
-        :func:`time.monotonic` time; None: none); returns the report."""
+        :func:`time.monotonic` time; None: none); returns the report. ``source``: who asked,
+        ``admin`` (counted in the reload metric) or ``store`` (the store follower)."""
         wait = -1 if deadline is None else max(0.0, deadline - time.monotonic())
         if not self._lock.acquire(timeout=wait):
             old = self.runtime.serving
@@ -66,14 +71,17 @@ class Reloader:
             try:
                 report = self._reload(requested, deadline)
             except ReloadFailed as exc:
-                self.runtime.metrics.reloads.labels("failed", exc.extra["step"]).inc()
-                log.warning("reload failed", extra={"step": exc.extra["step"],
+                if source == "admin":
+                    self.runtime.metrics.reloads.labels("failed", exc.extra["step"]).inc()
+                log.warning("reload failed", extra={"step": exc.extra["step"], "source": source,
                                                     "error": exc.message})
                 raise
             report["seconds"] = round(time.perf_counter() - started, 3)
-            self.runtime.metrics.reloads.labels("ok", "").inc()
-            log.info("reloaded", extra={k: report[k] for k in (
-                "model_version", "previous_model_version", "bundle", "seconds")})
+            if source == "admin":
+                self.runtime.metrics.reloads.labels("ok", "").inc()
+            log.info("reloaded", extra={"source": source} | {k: report[k] for k in (
+                "model_version", "previous_model_version", "bundle", "store_version",
+                "seconds")})
             return report
         finally:
             self.step = None
@@ -112,5 +120,6 @@ class Reloader:
         runtime.install(new)
         return {"reloaded": True, "model_version": new.model_version,
                 "previous_model_version": serving, "bundle": new.bundle_path,
+                "store_version": (new.bundle or {}).get("store_version"),
                 "modes": new.modes, "default_mode": new.default_mode,
                 "smoke": (new.bundle or {}).get("smoke")}

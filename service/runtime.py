@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import re
+import socket
 import time
 from concurrent.futures import ThreadPoolExecutor
 from importlib.metadata import PackageNotFoundError, version
@@ -21,6 +23,19 @@ from impactnet.service.settings import Settings
 from impactnet.service.state import build_state
 
 log = logging.getLogger("impactnet.service")
+
+#: Characters that a replica name keeps in its header; others become "_" (a header value is
+#: latin-1 and must not break the response's framing).
+_HEADER_UNSAFE = re.compile(r"[^\x21-\x7e]")
+#: Longest replica name in characters (the rest is cut): a header, not a document.
+REPLICA_NAME_MAX = 128
+
+
+def replica_name(settings: Settings) -> str:
+    """``settings.replica_name``, else ``<hostname>:<port>``: printable ASCII, at most
+    :data:`REPLICA_NAME_MAX` characters."""
+    name = settings.replica_name or f"{socket.gethostname()}:{settings.port}"
+    return _HEADER_UNSAFE.sub("_", name)[:REPLICA_NAME_MAX]
 
 
 def package_versions() -> dict[str, str]:
@@ -44,6 +59,9 @@ class Runtime:
         self.draining = False
         self.load_error: str | None = None
         self.versions = package_versions()
+        self.replica = replica_name(settings)  # the X-Replica header of every answer
+        # the store follower (impactnet.service.store_follow), once it runs; None: no store
+        self.follower = None
         self.saturation = Saturation(settings.saturation_ready_s)
         self.budget = MemoryBudget(settings.memory_budget_bytes, settings.memory_wait_s,
                                    settings.retry_after_s, on_refusal=self._memory_refused)

@@ -88,6 +88,17 @@ class Settings(BaseSettings):
     # Seconds an admin reload may take (read, verify, smoke-test, warm up); later it fails
     # with the step it was in, and the bundle it was loading is never installed.
     reload_timeout_s: float = Field(120.0, gt=0)
+    # Seconds between two reads of a bundle store's `current` pointer (the bundle folder is a
+    # store: `current` + `versions/`). A change is loaded through the admin reload's verified
+    # steps and swapped in; a version that fails keeps the old one serving and is retried with
+    # back-off (impactnet.service.store_follow). 10 s: a fleet converges within ~11 s plus one
+    # load, at the cost of one small file read per replica per poll. 0: the store is not
+    # followed (only admin reload changes the bundle).
+    store_poll_s: float = Field(10.0, ge=0)
+    # Name of this replica in the `X-Replica` header of every answer and in GET /v1/models, so
+    # that a client (or a test) behind a balancer sees which replica answered. None or "":
+    # "<hostname>:<port>".
+    replica_name: str | None = None
     # Generated first-contact poses per bundle pair in the smoke test that a bundle passes
     # against the exact solver before it serves (at startup and on every reload).
     smoke_poses: int = Field(256, ge=8, le=100_000)

@@ -25,14 +25,15 @@ within size
 The warm-up (:func:`impactnet.service.predictors.warm_up`) and the install follow in
 :class:`impactnet.service.runtime.Runtime`. The state's ``model_version`` is the bundle's
 ``version``
-(manifest) when a bundle is loaded.
+(manifest) when a bundle is loaded; read from a store, ``bundle["store_version"]`` names the
+version folder that ``current`` named when it was read (what a replica that follows the store
+compares with the pointer, :mod:`impactnet.service.store_follow`).
 """
 from __future__ import annotations
 
 from pathlib import Path
 
 from impactnet.models.bundle.format import Bundle, BundleError, read_bundle
-from impactnet.models.bundle.store import resolve_bundle
 from impactnet.models.learned.pair_dispatch import UNSUPPORTED, PairTable
 from impactnet.models.predictors import DEFAULT_BUNDLE, load_predictor
 from impactnet.service.limits.bundle_guard import check_bundle_files
@@ -78,6 +79,15 @@ def configured_bundle(setting: str | None, scene: SceneView) -> Path | None:
 
 def read_for_scene(path: Path, scene: SceneView) -> Bundle:
     """Steps ``read`` and ``scene_hash``: the verified bundle at ``path``, built for ``scene``."""
+    return read_version_for_scene(path, scene)[0]
+
+
+def read_version_for_scene(path: Path, scene: SceneView) -> tuple[Bundle, str | None]:
+    """:func:`read_for_scene`, and the store version read (None for a plain bundle folder).
+
+    A store's pointer is read once: the files checked, the bundle read and the version
+    reported are those of one version, even while a publisher moves ``current``.
+    """
     try:
         found = path.is_dir()
     except OSError as exc:  # e.g. a name too long for the file system (ENAMETOOLONG)
@@ -85,8 +95,8 @@ def read_for_scene(path: Path, scene: SceneView) -> Bundle:
     if not found:
         raise LoadError("read", f"bundle {str(path)!r}: no such folder", path)
     try:
-        check_bundle_files(path)  # regular files within their caps: nothing can block
-        bundle = read_bundle(resolve_bundle(path))  # a store reads its current version
+        folder = check_bundle_files(path)  # regular files within their caps: no read blocks
+        bundle = read_bundle(folder)  # a store reads its current version
     except (BundleError, OSError) as exc:
         raise LoadError("read", f"bundle {str(path)!r} refused: {exc}", path) from exc
     built_for = bundle.manifest.get("scene") or {}
@@ -100,7 +110,7 @@ def read_for_scene(path: Path, scene: SceneView) -> Bundle:
             f"{str(digest)[:12]}, but the served scene {scene.name!r} has hash "
             f"{scene.hash[:12]} (its bodies, pairs, depth range or accuracy differ); retrain "
             "the bundle for this scene, or serve without it (--bundle none)", path)
-    return bundle
+    return bundle, (folder.name if folder != path else None)
 
 
 def learned_predictors(bundle: Bundle) -> tuple[dict, dict[str, str]]:
@@ -177,7 +187,7 @@ def state_for(scene: SceneView, path: Path | None, settings: Settings,
         return ServingState(scene=scene, predictors=predictors, unavailable=unavailable,
                             model_version=exact_model_version(scene), default_mode=mode)
     on_step("read")
-    bundle = read_for_scene(path, scene)
+    bundle, store_version = read_version_for_scene(path, scene)
     on_step("build")
     learned, unavailable = learned_predictors(bundle)
     predictors.update(learned)
@@ -188,7 +198,7 @@ def state_for(scene: SceneView, path: Path | None, settings: Settings,
     except SmokeTestFailed as exc:
         raise LoadError("smoke", f"bundle {str(path)!r} failed the smoke test: {exc}",
                         path) from exc
-    info = describe(bundle, path, scene) | {"smoke": report}
+    info = describe(bundle, path, scene) | {"store_version": store_version, "smoke": report}
     return ServingState(scene=scene, predictors=predictors, unavailable=unavailable,
                         model_version=bundle.version, default_mode=mode, bundle=info)
 

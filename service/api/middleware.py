@@ -2,7 +2,8 @@
 
 Order, outermost first:
 
-1. :class:`RequestContext`: request id (``X-Request-ID`` honoured and returned), one JSON
+1. :class:`RequestContext`: request id (``X-Request-ID`` honoured and returned), the
+   replica's name (``X-Replica``, on every answer, errors included), one JSON
    access-log line, the request / latency metrics, ``Connection: close`` on every answer
    while the server drains (keep-alive clients reconnect elsewhere before the socket closes),
    and the catch-all: an exception that escapes the app is logged with its traceback and
@@ -37,6 +38,7 @@ class RequestContext(Middleware):
     def __init__(self, app: ASGIApp, runtime: Runtime) -> None:
         super().__init__(app, runtime)
         self._cache: dict[tuple[str, str, int], tuple] = {}
+        self._replica = (b"x-replica", runtime.replica.encode("ascii"))
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -52,7 +54,7 @@ class RequestContext(Middleware):
             nonlocal status, response_started
             if message["type"] == "http.response.start":
                 response_started, status = True, message["status"]
-                headers = [*message.get("headers", ()), rid_header]
+                headers = [*message.get("headers", ()), rid_header, self._replica]
                 if self.runtime.draining and _CLOSE not in headers:
                     headers.append(_CLOSE)
                 message = {**message, "headers": headers}

@@ -247,6 +247,8 @@ class ReloadResponse(BaseModel):
     model_version: str = Field(description="The new bundle's version, now serving.")
     previous_model_version: str | None
     bundle: str | None = Field(description="Absolute path of the bundle now serving.")
+    store_version: str | None = Field(None, description="The version folder read, where "
+                                      "`bundle` is a store (its `current` then).")
     modes: list[Mode]
     default_mode: Mode
     smoke: dict | None = Field(description="The smoke test's figures per pair and mode.")
@@ -295,6 +297,13 @@ class ModelsResponse(BaseModel):
     feature_names: dict[str, str]
     includes: list[str] = Field(description="Accepted values of `include`.")
     loaded_at: float
+    replica: str = Field(description="This replica's name (also the `X-Replica` header).")
+    store: dict | None = Field(None, description="The bundle store this replica follows: "
+                               "`path`, `poll_s`, `current` (what its pointer named at the "
+                               "last poll), `served` (the store version serving), `in_sync`, "
+                               "`last_follow` (time, version, result, step, error), `failures` "
+                               "and `retry_at` of a failing version; null when no store is "
+                               "followed.")
 
 
 class HealthResponse(BaseModel):

@@ -63,28 +63,37 @@ def _read_capped(path: Path, cap: int, what: str) -> bytes:
     return data
 
 
-def _bundle_folder(path: Path) -> Path:
-    """The folder the reader will read: a store's current version, else ``path``."""
+def store_pointer(path: Path) -> str | None:
+    """The version that the store ``path``'s pointer names, read within its cap (a FIFO or a
+    device there is refused, never opened); None where ``path`` has no pointer (a plain
+    bundle folder, or nothing at all). BundleError for a bad pointer."""
     pointer = path / CURRENT
     if not os.path.lexists(pointer):
-        return path
+        return None
     name = _read_capped(pointer, POINTER_MAX_BYTES, "the store pointer")
     try:
-        return path / VERSIONS / check_version_name(name.decode("utf-8").strip())
+        return check_version_name(name.decode("utf-8").strip())
     except UnicodeDecodeError:
         raise BundleError(f"{pointer}: not a version name") from None
 
 
-def check_bundle_files(path: Path) -> None:
-    """Raise :class:`impactnet.models.bundle.format.BundleError` unless the bundle's files are
-    regular files
-    within their caps (module docstring). A missing folder is left to the reader."""
+def _bundle_folder(path: Path) -> Path:
+    """The folder the reader will read: a store's current version, else ``path``."""
+    version = store_pointer(path)
+    return path if version is None else path / VERSIONS / version
+
+
+def check_bundle_files(path: Path) -> Path:
+    """The folder to read for ``path`` (a store's current version, named by the pointer read
+    once here, else ``path``); raise :class:`impactnet.models.bundle.format.BundleError` unless
+    its files are regular files within their caps (module docstring). A missing folder or
+    manifest is left to the reader."""
     if not path.is_dir():
-        return
+        return path
     folder = _bundle_folder(path)
     manifest_path = folder / MANIFEST
     if not os.path.lexists(manifest_path):
-        return  # the reader reports a missing manifest
+        return folder  # the reader reports a missing manifest
     try:
         manifest = json.loads(_read_capped(manifest_path, MANIFEST_MAX_BYTES, "the manifest"))
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -95,10 +104,11 @@ def check_bundle_files(path: Path) -> None:
             _regular(folder / str(name), FILE_MAX_BYTES, f"bundle file {name!r}")
     weights = folder / WEIGHTS
     if not os.path.lexists(weights):
-        return
+        return folder
     if _regular(weights, FILE_MAX_BYTES, "the weights") >= _HEADER_LENGTH_BYTES:
         with open(weights, "rb") as f:
             length = int.from_bytes(f.read(_HEADER_LENGTH_BYTES), "little")
         if length > WEIGHTS_HEADER_MAX_BYTES:
             raise BundleError(f"{weights}: safetensors header of {length} bytes, more than "
                               f"{WEIGHTS_HEADER_MAX_BYTES}")
+    return folder

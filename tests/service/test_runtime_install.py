@@ -150,6 +150,10 @@ def test_runtime_install_serves_without_torch_beside_foreign_models_and_service(
         with urllib.request.urlopen(f"{proc.url}/v1/models", timeout=10) as response:
             models = json.loads(response.read())
         assert (models["bundle"] is not None) == shipped
+        # /docs offline: its assets come from the installed fastapi-offline wheel.
+        with urllib.request.urlopen(f"{proc.url}/static/docs/swagger-ui-bundle.js",
+                                    timeout=10) as response:
+            assert response.status == 200 and len(response.read()) > 100_000
         if shipped:  # the wheel carries the bundle and serves it without torch
             assert models["modes"]["default"] == "auto"
             assert contact("auto")["predictor"] in ("committee", "exact")

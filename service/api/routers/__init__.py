@@ -1,4 +1,4 @@
-"""One router per resource: contact, batch, models, health, metrics, admin."""
+"""One router per resource: contact, batch, models, health, metrics, docs, admin."""
 from __future__ import annotations
 
 from impactnet.service.api.schemas import ErrorResponse

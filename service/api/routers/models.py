@@ -43,4 +43,6 @@ async def models(runtime: RuntimeDep, state: ServingDep, response: Response) -> 
         feature_names=FEATURE_NAMES,
         includes=["manifold", "paper_angles"],
         loaded_at=state.loaded_at,
+        replica=runtime.replica,
+        store=runtime.follower.describe() if runtime.follower is not None else None,
     )

@@ -3,6 +3,7 @@ pruning and adoption of a plain bundle folder."""
 from __future__ import annotations
 
 import os
+import threading
 import time
 
 import pytest
@@ -81,3 +82,54 @@ def test_a_plain_bundle_folder_is_adopted_as_the_first_version(tmp_path):
     assert current_version(folder) == "first"
     assert read_bundle(resolve_bundle(folder)).version == version
     assert not adopt_plain_bundle(folder, "again")  # already a store
+
+
+#: Versions published while the reader polls: enough writes for the loop to interleave with.
+PUBLISHES = 12
+#: Longest the tight loop may poll, in seconds (it stops earlier, once the publisher is done).
+POLL_BOUND_S = 20.0
+
+
+def test_a_reader_polling_in_a_tight_loop_never_sees_a_partial_version(tmp_path):
+    """The publisher writes each version as a training job does (``write_bundle`` into a
+    hidden temporary folder renamed into ``versions/``, then ``set_current``) while a reader
+    resolves and reads the store as fast as it can: every read is a complete, verified
+    version whose manifest names its folder, and the versions read never go back."""
+    from impactnet.models.bundle.format import write_bundle
+    from tests.models.learned.learned_fixtures import bundle_content
+
+    manifest, tensors = bundle_content()
+    store = tmp_path / "store"
+    write_bundle(store / VERSIONS / "p00", manifest | {"version": "p00"}, tensors)
+    set_current(store, "p00")
+    writing, done, errors = threading.Event(), threading.Event(), []
+
+    def publisher() -> None:
+        try:
+            for i in range(1, PUBLISHES + 1):
+                name = f"p{i:02d}"
+                writing.set()
+                write_bundle(store / VERSIONS / name, manifest | {"version": name}, tensors)
+                writing.clear()
+                set_current(store, name)
+        except BaseException as exc:  # noqa: BLE001 - reported by the test
+            errors.append(exc)
+        finally:
+            done.set()
+
+    thread = threading.Thread(target=publisher)
+    thread.start()
+    seen, during_writes = [], 0
+    deadline = time.monotonic() + POLL_BOUND_S
+    while not done.is_set() and time.monotonic() < deadline:
+        during_writes += writing.is_set()
+        folder = resolve_bundle(store)
+        bundle = read_bundle(folder)  # raises on a missing file or a checksum that differs
+        assert bundle.version == folder.name and folder.parent.name == VERSIONS
+        seen.append(folder.name)
+    thread.join(POLL_BOUND_S)
+    assert not errors and done.is_set()
+    assert seen == sorted(seen) and len(set(seen)) > 1  # forward only, several versions
+    assert during_writes > 0  # the loop really polled while versions were being written
+    assert current_version(store) == f"p{PUBLISHES:02d}"
+    assert not [p for p in (store / VERSIONS).iterdir() if p.name.startswith(".")]
