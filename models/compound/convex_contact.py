@@ -32,7 +32,7 @@ from impactnet.models.contacts import Contacts
 CHUNK_ITEMS = 2_000_000
 
 
-def _chunk_rows(sa: HullStack, sb: HullStack) -> int:
+def chunk_rows(sa: HullStack, sb: HullStack) -> int:
     """Rows per chunk for these (padded) stacks."""
     a, b = sa.width, sb.width
     per_row = (a["V"] * b["F"] + b["V"] * a["F"] + a["E"] * b["E"] + 3 * (a["T"] + b["T"]))
@@ -68,7 +68,7 @@ def stacked_contacts(stack_a: HullStack, index_a, stack_b: HullStack, index_b, p
     """Contacts of m rows, row i of A's part ``stack_a.hulls[index_a[i]]`` and B's part
     ``stack_b.hulls[index_b[i]]`` (arguments otherwise as :func:`convex_contacts`)."""
     m = len(position_a)
-    step = _chunk_rows(stack_a, stack_b)
+    step = chunk_rows(stack_a, stack_b)
     pieces = [_solve(stack_a, index_a[s:s + step], stack_b, index_b[s:s + step],
                      position_a[s:s + step], rot_a[s:s + step], position_b[s:s + step],
                      rot_b[s:s + step]) for s in range(0, m, step)]

@@ -36,7 +36,8 @@ import numpy as np
 from impactnet.models.box.exact import box_box
 from impactnet.models.compound.body_table import body_table
 from impactnet.models.compound.broadphase import broadphase
-from impactnet.models.compound.convex_contact import stacked_contacts
+from impactnet.models.compound.convex_contact import chunk_rows, stacked_contacts
+from impactnet.models.compound.convex_sat import choose_axis
 from impactnet.models.compound.hull_stack import size_classes
 from impactnet.models.contacts import Contacts
 from impactnet.models.geometry.rotations import quaternion_to_matrix, validate_quaternion
@@ -107,6 +108,43 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
                                 rot_b[s:s + ORACLE_CHUNK], table_b))
                         for s in range(0, n, ORACLE_CHUNK)])
     return _solve((pos_a, q_a, rot_a, table_a), (pos_b, q_b, rot_b, table_b))
+
+
+def compound_touching(parts_a, position_a, quaternion_a, parts_b, position_b,
+                      quaternion_b) -> np.ndarray:
+    """(n,) bool: whether any part of B touches any part of A, pose by pose (arguments as
+    :func:`compound_contacts`).
+
+    The separating-axis test alone, on the broadphase's survivors (box parts through their
+    box hulls): no contact geometry and no filter of covered surfaces, a fraction of the
+    oracle's cost. A covered surface lies inside another part of its body, which the other
+    body's part then overlaps too, so a pose touches here iff the oracle finds a contact
+    (within the contact tolerance). Data generation's first-contact search asks only this.
+    """
+    table_a, table_b = body_table(parts_a), body_table(parts_b)
+    pos_a, _, rot_a = _poses(position_a, quaternion_a)
+    pos_b, _, rot_b = _poses(position_b, quaternion_b)
+    n = max(len(pos_a), len(pos_b))
+    pos_a, pos_b = np.broadcast_to(pos_a, (n, 3)), np.broadcast_to(pos_b, (n, 3))
+    rot_a, rot_b = np.broadcast_to(rot_a, (n, 3, 3)), np.broadcast_to(rot_b, (n, 3, 3))
+    pose, i, j = broadphase(table_a, table_b, pos_b - pos_a, rot_a, rot_b)
+    classes_a, classes_b = size_classes(table_a.hulls), size_classes(table_b.hulls)
+    ra_t = rot_a[pose].transpose(0, 2, 1)
+    t = np.einsum("kij,kj->ki", ra_t, (pos_b - pos_a)[pose])
+    rot = ra_t @ rot_b[pose]
+    pair_class = classes_a.klass[i] * len(classes_b.stacks) + classes_b.klass[j]
+    touching = np.zeros(n, bool)
+    for key in np.unique(pair_class):
+        rows = np.flatnonzero(pair_class == key)
+        stack_a = classes_a.stacks[key // len(classes_b.stacks)]
+        stack_b = classes_b.stacks[key % len(classes_b.stacks)]
+        step = chunk_rows(stack_a, stack_b)
+        for s in range(0, len(rows), step):
+            block = rows[s:s + step]
+            choice = choose_axis(stack_a, stack_b, t[block], rot[block],
+                                 classes_a.slot[i[block]], classes_b.slot[j[block]])
+            touching[pose[block[choice.colliding]]] = True
+    return touching
 
 
 def _solve(body_a, body_b) -> PartContacts:

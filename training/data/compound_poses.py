@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from impactnet.models.compound.oracle import compound_contacts
+from impactnet.models.compound.oracle import compound_touching
 
 #: Bisection steps of the first contact: halving a bracket of :data:`APPROACH_RANGE_M` this
 #: many times leaves 0.5 m / 2**30, 0.5 nm, far below any pushed depth.
@@ -81,10 +81,9 @@ def first_contact(parts_a, parts_b, start: np.ndarray, quaternion: np.ndarray,
     n = len(start)
     origin, identity = np.zeros((n, 3)), np.tile([1.0, 0, 0, 0], (n, 1))
 
-    def touching(distance):
-        found = compound_contacts(parts_a, origin, identity, parts_b,
-                                  start + distance[:, None] * direction, quaternion)
-        return np.diff(found.offsets) > 0
+    def touching(distance):  # the separating-axis test alone: the oracle's touching poses
+        return compound_touching(parts_a, origin, identity, parts_b,
+                                 start + distance[:, None] * direction, quaternion)
 
     lo, hi = np.zeros(n), np.full(n, 2 * APPROACH_RANGE_M)
     reach = touching(hi)

@@ -2,7 +2,7 @@
 import numpy as np
 
 from impactnet.models.compound import crane_bodies as cb
-from impactnet.models.compound.oracle import compound_contacts
+from impactnet.models.compound.oracle import compound_contacts, compound_touching
 from impactnet.models.geometry.rotations import (
     quaternion_to_matrix,
     random_quaternions,
@@ -118,3 +118,37 @@ def test_blocks_of_poses_give_the_same_answer_as_one_block(monkeypatch):
     for name, column in whole.contacts.arrays().items():
         np.testing.assert_array_equal(blocks.contacts.arrays()[name], column, err_msg=name)
     assert (np.diff(whole.offsets) == 0).any() and len(whole.pose) > n  # both kinds of pose
+
+
+def _near_poses(rng, n, height, tilt_max, offsets):
+    """n poses of B above A: offsets up to ``offsets`` (m, x and y), a tilt up to
+    ``tilt_max`` (rad) about a random axis, B's origin ``height`` +- 3 mm high (touching or
+    not)."""
+    axis = rng.normal(size=(n, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    tilt = rng.uniform(0.0, tilt_max, n)
+    quaternion = np.c_[np.cos(tilt / 2), np.sin(tilt / 2)[:, None] * axis]
+    position = np.c_[rng.uniform(-offsets[0], offsets[0], n),
+                     rng.uniform(-offsets[1], offsets[1], n),
+                     height + rng.uniform(-3e-3, 3e-3, n)]
+    return position, quaternion
+
+
+def test_the_touching_test_agrees_with_the_oracle_on_stacking_and_twistlocks():
+    """compound_touching (the separating-axis test alone) says a pose touches exactly where the
+    oracle finds a part contact: detail-2 stacking and a spreader's heads in the apertures."""
+    rng = np.random.default_rng(11)
+    container = cb.container("40ft", detail=2)
+    height = cb.CONTAINERS["40ft"][2]
+    cases = [(container, height, 3e-4, (0.05, 0.05)),
+             (cb.spreader("40ft", sides=32),
+              height / 2 + cb.SPREADER_FRAME_HEIGHT_ASSUMED / 2, 1e-3, (0.012, 0.005))]
+    for body_b, z, tilt, offsets in cases:
+        position, quaternion = _near_poses(rng, 300, z, tilt, offsets)
+        found = compound_contacts(container, np.zeros(3), [1.0, 0, 0, 0], body_b, position,
+                                  quaternion)
+        touching = compound_touching(container, np.zeros(3), [1.0, 0, 0, 0], body_b,
+                                     position, quaternion)
+        expected = np.diff(found.offsets) > 0
+        assert 0.2 < expected.mean() < 0.95, expected.mean()  # both kinds of pose
+        np.testing.assert_array_equal(touching, expected)
