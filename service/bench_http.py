@@ -1,7 +1,7 @@
 """HTTP benchmark of the service on loopback (a script, not a test).
 
     python -m impactnet.service.bench_http [--quick] [--json PATH] [--access-log] [--mode M]
-                                 [--bundle PATH]
+                                 [--bundle PATH] [--url URL] [--clients N]
 
 (Run it as a module: ``python service/bench_http.py`` would put service/ first on sys.path,
 where service/log_setup.py shadows the standard library's logging.)
@@ -21,12 +21,20 @@ Goals (issue 5): contact p50 <= 1 ms, p99 <= 3 ms; 100k batch <= 2 s JSON, <= 0.
 ``--mode`` is the server's default mode for these requests (``exact`` unless given, so the
 figures stay comparable whether or not a bundle is loaded); ``--bundle`` as ``impactnet
 serve`` (default: the scene's shipped bundle when it exists).
+
+``--url`` measures a service that is already running there (a fleet's front: docs/fleet.md)
+instead of starting one; ``--mode`` is then sent with each request. ``--clients N`` adds a
+throughput section: N client processes, each with its own keep-alive connection, send single
+pairs (req/s, pooled p50 / p99) and then 100,000-pair npz batches (pairs/s) at once.
 """
 from __future__ import annotations
 
 import argparse
 import contextlib
+import http.client
+import io
 import json
+import multiprocessing
 import os
 import platform
 import socket
@@ -150,8 +158,70 @@ def _timed(call, repeats: int) -> dict:
     return {"repeats": repeats, "median_s": float(np.median(times)), "min_s": float(min(times))}
 
 
+# ------------------------------------------------------------------------- throughput
+
+
+def _npz(columns: dict) -> bytes:
+    buffer = io.BytesIO()
+    np.savez(buffer, **columns)
+    return buffer.getvalue()
+
+
+def _client_worker(url: str, kind: str, count: int, warmup: int, mode: str, barrier,
+                   results) -> None:
+    """One client process: ``warmup`` then ``count`` requests of ``kind`` (``pair`` or
+    ``npz``) after every client is ready; puts (latencies s, start, end, failures)."""
+    api = ImpactClient(url, retries=0)
+    if kind == "pair":
+        body = json.dumps({**PAIR, "mode": mode}).encode()
+        headers, path = {"Content-Type": "application/json"}, "/v1/contact"
+    else:
+        body, headers = _npz(poses(100_000)), {"Content-Type": "application/x-npz",
+                                               "Accept": "application/x-npz"}
+        path = f"/v1/contact/batch?mode={mode}"
+    for _ in range(warmup):
+        api.request("POST", path, body, headers)
+    barrier.wait()
+    times, failures, start = [], 0, time.perf_counter()
+    for _ in range(count):
+        sent = time.perf_counter()
+        try:
+            status = api.request("POST", path, body, headers)[0]
+        except (OSError, http.client.HTTPException):
+            status = 0
+        times.append(time.perf_counter() - sent)
+        failures += status != 200
+    results.put((times, start, time.perf_counter(), failures))
+    api.close()
+
+
+def throughput(url: str, clients: int, kind: str, count: int, warmup: int,
+               mode: str = "exact") -> dict:
+    """``clients`` processes sending ``count`` requests each at once (:func:`_client_worker`):
+    requests per second over the wall time of all, latency percentiles over all requests."""
+    context = multiprocessing.get_context("fork")
+    barrier, results = context.Barrier(clients), context.Queue()
+    workers = [context.Process(target=_client_worker, args=(url, kind, count, warmup, mode,
+                                                            barrier, results))
+               for _ in range(clients)]
+    for worker in workers:
+        worker.start()
+    done = [results.get(timeout=600) for _ in workers]
+    for worker in workers:
+        worker.join(60)
+    times = [t for d in done for t in d[0]]
+    wall = max(d[2] for d in done) - min(d[1] for d in done)
+    out = {"clients": clients, "requests": len(times), "wall_s": wall,
+           "req_per_s": len(times) / wall, "failures": sum(d[3] for d in done),
+           **_percentiles(times)}
+    if kind == "npz":
+        out["pairs_per_s"] = out["req_per_s"] * 100_000
+    return out
+
+
 def run(quick: bool = False, json_path: str | None = None, access_log: bool = False,
-        mode: str = "exact", bundle: str | None = None) -> int:
+        mode: str = "exact", bundle: str | None = None, url: str | None = None,
+        clients: int = 0) -> int:
     n_single, warmup = (500, 100) if quick else (5000, 500)
     repeats = 2 if quick else 5
     n_batch = 100_000
@@ -165,7 +235,7 @@ def run(quick: bool = False, json_path: str | None = None, access_log: bool = Fa
     single_body = json.dumps(PAIR).encode()
     machine = {"python": platform.python_version(), "cpus": os.cpu_count(),
                "platform": platform.platform(), "load_avg_1m": os.getloadavg()[0]}
-    results: dict = {"access_log": access_log, "mode": mode, "machine": machine}
+    results: dict = {"access_log": access_log, "mode": mode, "machine": machine, "url": url}
 
     from impactnet.models.box.exact import box_box
 
@@ -173,12 +243,16 @@ def run(quick: bool = False, json_path: str | None = None, access_log: bool = Fa
         "a_size", "a_position", "a_quaternion", "b_size", "b_position", "b_quaternion"))),
         repeats)
 
+    service = (contextlib.nullcontext() if url
+               else _process(service_args, service_port, "/readyz"))
+    url = url or f"http://127.0.0.1:{service_port}"
+    if results["url"]:  # a running service: its default mode may differ, name it
+        single_body = json.dumps({**PAIR, "mode": mode}).encode()
     with _process(["-c", f"from impactnet.service.bench_http import _serve_echo; "
                          f"_serve_echo({echo_port})"],
-                  echo_port, "/"), \
-            _process(service_args, service_port, "/readyz"):
+                  echo_port, "/"), service:
         echo = ImpactClient(f"http://127.0.0.1:{echo_port}")
-        api = ImpactClient(f"http://127.0.0.1:{service_port}")
+        api = ImpactClient(url)
         headers = {"Content-Type": "application/json"}
         results["echo_single"] = _latency(
             lambda: echo.request("POST", "/", single_body, headers), n_single, warmup)
@@ -187,8 +261,6 @@ def run(quick: bool = False, json_path: str | None = None, access_log: bool = Fa
         results["contact_client"] = _latency(lambda: api.contact(PAIR["a"], PAIR["b"]),
                                               n_single, warmup)
         results["healthz"] = _latency(lambda: api.request("GET", "/healthz"), n_single, warmup)
-
-        import io
 
         import orjson
 
@@ -203,10 +275,16 @@ def run(quick: bool = False, json_path: str | None = None, access_log: bool = Fa
         results["echo_batch_npz"] = _timed(
             lambda: echo.request("POST", "/", npz_bytes, {"Content-Type": "application/x-npz"}),
             repeats)
-        results["batch_json"] = _timed(lambda: api.batch(columns, binary=False), repeats)
-        results["batch_npz"] = _timed(lambda: api.batch(columns, binary=True), repeats)
+        results["batch_json"] = _timed(lambda: api.batch(columns, binary=False, mode=mode),
+                                       repeats)
+        results["batch_npz"] = _timed(lambda: api.batch(columns, binary=True, mode=mode),
+                                      repeats)
         echo.close()
         api.close()
+        if clients:
+            results["throughput_pairs"] = throughput(url, clients, "pair", n_single // 2,
+                                                     warmup // 5, mode)
+            results["throughput_npz"] = throughput(url, clients, "npz", repeats, 1, mode)
 
     _report(results, n_batch)
     if json_path:
@@ -240,6 +318,17 @@ def _report(r: dict, n_batch: int) -> None:
                        ("batch_npz", "batch as npz (ImpactClient.batch binary=True)")):
         s = r[key]
         print(f"| {label} | {s['median_s']:.3f} | {s['min_s']:.3f} |")
+    if "throughput_pairs" in r:
+        p, b = r["throughput_pairs"], r["throughput_npz"]
+        print(f"\n| {p['clients']} clients at once ({r['url'] or 'one server'}) | req/s | "
+              "pairs/s | p50 ms | p99 ms | failed |")
+        print("|---|---|---|---|---|---|")
+        print(f"| POST /v1/contact, {p['requests']} requests | {p['req_per_s']:.0f} | "
+              f"{p['req_per_s']:.0f} | {p['p50_ms']:.3f} | {p['p99_ms']:.3f} | "
+              f"{p['failures']} |")
+        print(f"| npz batches of {n_batch:,}, {b['requests']} requests | {b['req_per_s']:.2f} | "
+              f"{b['pairs_per_s']:.0f} | {b['p50_ms']:.0f} | {b['p99_ms']:.0f} | "
+              f"{b['failures']} |")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -253,9 +342,13 @@ def main(argv: list[str] | None = None) -> int:
                                                               "auto"],
                         help="mode of the requests (the server's default mode; default exact)")
     parser.add_argument("--bundle", help="the server's --bundle (default: the shipped one)")
+    parser.add_argument("--url", help="measure the service running there (e.g. a fleet's "
+                        "front) instead of starting one")
+    parser.add_argument("--clients", type=int, default=0,
+                        help="also measure throughput with N concurrent client processes")
     args = parser.parse_args(argv)
     return run(quick=args.quick, json_path=args.json, access_log=args.access_log,
-               mode=args.mode, bundle=args.bundle)
+               mode=args.mode, bundle=args.bundle, url=args.url, clients=args.clients)
 
 
 if __name__ == "__main__":
