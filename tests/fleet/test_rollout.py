@@ -63,6 +63,10 @@ def test_a_published_version_reaches_every_replica_once_and_for_good(nginx, tmp_
             time.sleep(STEADY_S)
 
     failed = direct.failures() + front.failures()
+    served = len(direct.answers) + len(front.answers)
+    print(f"rollout: {served} requests, {len(failed)} failed; seconds from publication to each "
+          f"replica's first new answer: "
+          f"{[round(first_new(direct.by(i)) - published, 2) for i in range(len(names))]}")
     assert not failed, [(a.status, a.error) for a in failed[:5]]
     for i, name in enumerate(names):
         mine = direct.by(i)
