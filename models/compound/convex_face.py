@@ -36,6 +36,12 @@ from impactnet.models.compound.convex_sat import dot, rotate
 from impactnet.models.compound.hull_stack import HullStack
 from impactnet.models.contacts import MAX_MANIFOLD_POINTS
 
+#: Incident hulls with more fan triangles than this have those beside the reference face
+#: dropped before clipping (:func:`_beside_face_dropped`). Measured in one run on the bench's
+#: twistlock poses: 21 % less time at 128 sides, 36 % at 256; with the few triangles of a box,
+#: a ring piece or an 8-sided head (12-28) the test costs more (5-10 %) than it saves.
+CULL_MIN_TRIANGLES = 64
+
 
 @dataclass
 class FaceRegion:
@@ -70,6 +76,17 @@ def _clip_to_face(ref: HullStack, rid, face, polygons, counts, item_row):
     return polygons, counts
 
 
+def _beside_face_dropped(ref: HullStack, rid, face, row, polygons):
+    """(row, polygons) without the triangles that lie wholly outside one side of their row's
+    reference face: clipping would leave nothing of them (a many-sided twistlock head's base
+    beside a ring piece's face), so the answer is the same, for less work."""
+    planes = ref.side_planes[rid[row], face[row]]  # (k, M, 4)
+    value = (polygons[:, :, pc.U, None] * planes[:, None, :, 0]
+             + polygons[:, :, pc.W, None] * planes[:, None, :, 1] + planes[:, None, :, 3])
+    keep = ~(value < 0.0).all(axis=1).any(axis=1)
+    return row[keep], polygons[keep]
+
+
 def _region(ref: HullStack, rid, face, frames, inc: HullStack, iid, rot_inc, uwp):
     """Moments (4, m) and the deepest pressure (m,) of the regions."""
     m = len(face)
@@ -82,6 +99,8 @@ def _region(ref: HullStack, rid, face, frames, inc: HullStack, iid, rot_inc, uwp
              & (tri_p.max(axis=2) >= 0.0) & inc.triangle_valid[iid])
     row, tri = np.nonzero(reach)
     polygons = uwp[row[:, None], triangles[row, tri]]  # (k, 3, 3)
+    if triangles.shape[1] > CULL_MIN_TRIANGLES:
+        row, polygons = _beside_face_dropped(ref, rid, face, row, polygons)
     polygons, counts = _clip_to_face(ref, rid, face, polygons, np.full(len(row), 3), row)
     per_item = pc.moments(polygons, counts)
     totals = np.stack([np.bincount(row, per_item[i], minlength=m) for i in range(4)])

@@ -219,3 +219,34 @@ def test_a_head_resting_level_on_a_plate_presses_at_its_tip_centroid():
     np.testing.assert_allclose(got.point[0, :2], centroid, atol=1e-12)
     # half the depth below the plate's top, less a trace: the tapering sides dip in too
     assert 0.015 - push / 2 < got.point[0, 2] < 0.015 - push / 2 + 1e-3 * push
+
+
+def test_dropping_triangles_beside_the_reference_face_changes_no_bit(monkeypatch):
+    """A 128-sided head against a small ring-like plate: the triangles that lie wholly outside a
+    side of the reference face are dropped before clipping; every answer keeps its bits."""
+    from impactnet.models.compound import convex_face
+
+    head, plate = _head(128), box_hull((0.04, 0.03, 0.026))
+    rng = np.random.default_rng(128)
+    n = 400
+    qa, qb = random_quaternions(n, rng), random_quaternions(n, rng)
+    pa = np.zeros((n, 3))
+    pb = rng.uniform(-0.06, 0.06, (n, 3)) - np.einsum("nij,j->ni", _rotations(qb),
+                                                       head.vertices.mean(axis=0))
+    dropped = []
+    real = convex_face._beside_face_dropped
+
+    def counting(*args):
+        row, polygons = real(*args)
+        dropped.append(len(args[3]) - len(row))
+        return row, polygons
+
+    monkeypatch.setattr(convex_face, "_beside_face_dropped", counting)
+    answers = []
+    for threshold in (0, 10**9):  # every hull culled, none
+        monkeypatch.setattr(convex_face, "CULL_MIN_TRIANGLES", threshold)
+        answers.append(convex_contacts(plate, head, pa, _rotations(qa), pb,
+                                       _rotations(qb)).arrays())
+    assert 0.2 * n < answers[0]["colliding"].sum() < n and sum(dropped) > n  # it did drop
+    for name, column in answers[0].items():
+        np.testing.assert_array_equal(column, answers[1][name], err_msg=name)
