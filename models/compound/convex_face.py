@@ -41,6 +41,10 @@ from impactnet.models.contacts import MAX_MANIFOLD_POINTS
 #: twistlock poses: 21 % less time at 128 sides, 36 % at 256; with the few triangles of a box,
 #: a ring piece or an 8-sided head (12-28) the test costs more (5-10 %) than it saves.
 CULL_MIN_TRIANGLES = 64
+#: Reference faces with more sides than this are clipped apart from the others
+#: (:func:`_clip_to_face`): a box face has 4 sides, a ring piece's a few, a twistlock head's
+#: sides 4 and its base and top 8-256.
+FEW_SIDES = 8
 
 
 @dataclass
@@ -66,10 +70,29 @@ def _plane_frames(ref: HullStack, rid: np.ndarray, face: np.ndarray):
 
 def _clip_to_face(ref: HullStack, rid, face, polygons, counts, item_row):
     """Polygons of items (k) clipped to ``p >= 0`` and their rows' reference faces' sides
-    (:attr:`Hull.side_planes`, precomputed in each face's frame)."""
+    (:attr:`Hull.side_planes`, precomputed in each face's frame). Items whose face has more than
+    :data:`FEW_SIDES` sides are clipped apart, so that a many-sided face (a twistlock head's
+    base) does not make every other item of the batch pass its extra sides."""
     polygons, counts = pc.clip(polygons, counts, np.array([0.0, 0.0, 1.0, 0.0]), True)
     planes = ref.side_planes[rid[item_row], face[item_row]]  # (k, M, 4)
-    for side in range(int(ref.face_counts[rid, face].max(initial=0))):
+    sides = ref.face_counts[rid[item_row], face[item_row]]
+    many = sides > FEW_SIDES
+    if not many.any() or many.all():
+        return _clip_sides(polygons, counts, planes, int(sides.max(initial=0)))
+    parts = [(np.flatnonzero(group), *_clip_sides(polygons[group], counts[group],
+                                                  planes[group], int(sides[group].max())))
+             for group in (~many, many)]
+    out = np.zeros((len(counts), max(p.shape[1] for _, p, _ in parts), 3))
+    counts = counts.copy()
+    for items, clipped, clipped_counts in parts:
+        out[items, :clipped.shape[1]] = clipped
+        counts[items] = clipped_counts
+    return out, counts
+
+
+def _clip_sides(polygons, counts, planes, sides: int):
+    """``polygons`` clipped by the first ``sides`` side planes of ``planes`` (k, M, 4)."""
+    for side in range(sides):
         if len(counts) == 0:
             break
         polygons, counts = pc.clip(polygons, counts, planes[:, side])
@@ -141,6 +164,7 @@ def _manifold(ref: HullStack, rid, face, frames, inc: HullStack, iid, inc_face, 
     m = len(face)
     n, _, origin, e_u, e_w = frames
     loops, counts = inc.face_loops[iid, inc_face], inc.face_counts[iid, inc_face]
+    loops = loops[:, :max(int(counts.max(initial=0)), 1)]  # the loops' padding, trimmed
     polygons = np.take_along_axis(uwp, loops[:, :, None], axis=1)
     polygons, counts = _clip_to_face(ref, rid, face, polygons, counts, np.arange(m))
     width = polygons.shape[1]
