@@ -1,0 +1,39 @@
+"""The classifier probe (issue #21's feasibility measurement): its labels are the oracle's part
+pairs row by row, and its figures are shares that behave as a margin sweep must."""
+import numpy as np
+import pytest
+
+from impactnet.training.bench import classifier_probe as cp
+
+pytest.importorskip("torch")
+
+
+@pytest.fixture(scope="module")
+def stacking_rows():
+    return cp.labelled_rows("container40/container40", 150, 3, None)
+
+
+def test_the_label_matrix_holds_exactly_each_rows_touching_part_pairs(stacking_rows):
+    data = stacking_rows
+    n = len(data["push"])
+    pose = np.repeat(np.arange(n), np.diff(data["contact_offsets"]))
+    keys = data["contact_part_a"].astype(int) * 4096 + data["contact_part_b"]
+    vocab, labels, unknown = cp.label_matrix(keys, pose, n, np.arange(n))
+    assert len(unknown) == 0 and labels.sum() == len(keys)
+    for row in range(n):
+        assert set(vocab[labels[row] > 0.5]) == set(keys[pose == row])
+    _, _, unknown = cp.label_matrix(keys, pose, n, np.arange(n // 2))  # pairs unseen in training
+    assert set(unknown) <= set(range(n // 2, n))
+
+
+def test_the_probe_reports_shares_that_fall_with_the_margin(stacking_rows):
+    figures = cp.probe(stacking_rows, "container40/container40", hidden=16, epochs=2, seed=0)
+    assert set(figures) == {"rows", "global", *(f"local_{c}" for c in cp.CORNERS)}
+    for name in ("global", "local_fl"):
+        f = figures[name]
+        assert f["labels"] > 0 and 0.0 <= f["exact_set"] <= 1.0
+        fallback = [f["margins"][m]["fallback"] for m in cp.MARGINS]
+        assert all(0.0 <= x <= 1.0 for x in fallback)
+        assert fallback == sorted(fallback, reverse=True)  # a wider margin answers more rows
+    assert figures["local_fl"]["labels"] < figures["global"]["labels"]
+    assert "| global |" in cp.report(figures)

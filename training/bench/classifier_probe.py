@@ -1,0 +1,190 @@
+"""Probe: can an MLP name the touching part pairs of a compound pair (issue #21, step 1)?
+
+A measurement, not a predictor: it labels first-contact rows of one pair of
+``quay_crane_detail`` with the exact oracle, trains a multi-label MLP classifier (PyTorch) on
+70 % of them and reports, on the held-out 15 %, how often the predicted set of touching part
+pairs is exact, and what share of rows a confidence margin sends to the oracle to reach a given
+exactness (issue #21's goal: exact on >= 99.9 % of the answered rows with <= 10 % fallback).
+
+Two inputs are compared:
+
+* ``global``: B's pose in A's frame (position, first two columns of the rotation), one
+  classifier over every part pair seen in training;
+* ``local``: one classifier per corner ``c`` (``fl``, ``fr``, ``al``, ``ar``) over the part
+  pairs of A's group ``casting_top_<c>`` or B's group ``<B group>_<c>`` (a bottom casting, a
+  twistlock head), with the pose of B's group relative to A's group as input.
+
+Usage::
+
+    python -m impactnet.training.bench.classifier_probe --pair container40/spreader \\
+        --rows 30000 --data /tmp/spreader.npz      # the labelled rows are cached there
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from impactnet.models.compound.parts import bounds
+from impactnet.models.geometry.rotations import quaternion_to_matrix
+from impactnet.models.scenes import load_scene
+from impactnet.training.data.compound_data import compound_rows
+
+#: Corners of the crane bodies' generated part names.
+CORNERS = ("fl", "fr", "al", "ar")
+#: B's group per corner, by B's generator: a container's bottom casting, a spreader's head.
+B_GROUPS = {"container": "casting_bottom", "spreader": "head"}
+#: Confidence margins reported: a row is answered when every label's probability is below the
+#: margin or above 1 - margin, else it goes to the oracle.
+MARGINS = (0.02, 0.05, 0.1, 0.2)
+#: Train / validation split of the rows (the rest is held out).
+SPLIT = (0.7, 0.85)
+
+
+def labelled_rows(pair: str, rows: int, seed: int, cache: Path | None) -> dict:
+    """The oracle's rows of ``pair`` (``a/b`` of quay_crane_detail), cached in ``cache``."""
+    if cache is not None and cache.exists():
+        return dict(np.load(cache))
+    scene = load_scene("quay_crane_detail")
+    a, b = pair.split("/")
+    edge = scene.smaller_shortest_edge((a, b))
+    depths = tuple(edge * f for f in scene.depth_fraction)
+    data = compound_rows(scene.body(a).parts, scene.body(b).parts, rows, depths,
+                         np.random.default_rng(seed))
+    if cache is not None:
+        np.savez(cache, **data)
+    return data
+
+
+def _centre(parts, group: str) -> np.ndarray:
+    lows, highs = zip(*(bounds(p) for p in parts if p.name.split("/")[0] == group))
+    return 0.5 * (np.min(lows, axis=0) + np.max(highs, axis=0))
+
+
+def label_matrix(keys: np.ndarray, pose: np.ndarray, n: int, train: np.ndarray):
+    """(vocabulary (v,), labels (n, v) float32, rows with a pair outside the vocabulary)."""
+    vocab = np.unique(keys[np.isin(pose, train)])
+    labels = np.zeros((n, len(vocab)), np.float32)
+    known = np.isin(keys, vocab)
+    labels[pose[known], np.searchsorted(vocab, keys[known])] = 1.0
+    return vocab, labels, np.unique(pose[~known])
+
+
+def _features(position, rotation, offset=None):
+    """(n, 9): position (plus ``offset`` (n, 3)) and the rotation's first two columns."""
+    at = position if offset is None else position + offset
+    return np.c_[at, rotation[:, :, :2].reshape(len(at), 6)]
+
+
+def train_classifier(x, labels, train, hidden: int, epochs: int, seed: int):
+    """Probabilities (n, v) of a 3-layer tanh MLP trained with binary cross-entropy."""
+    import torch
+
+    mean, std = x[train].mean(axis=0), x[train].std(axis=0) + 1e-9
+    xn = torch.tensor(((x - mean) / std).astype(np.float32))
+    torch.manual_seed(seed)
+    width = x.shape[1]
+    net = torch.nn.Sequential(torch.nn.Linear(width, hidden), torch.nn.Tanh(),
+                              torch.nn.Linear(hidden, hidden), torch.nn.Tanh(),
+                              torch.nn.Linear(hidden, hidden), torch.nn.Tanh(),
+                              torch.nn.Linear(hidden, labels.shape[1]))
+    optimiser = torch.optim.Adam(net.parameters(), 3e-3)
+    steps = max(1, epochs * (len(train) // 256))
+    schedule = torch.optim.lr_scheduler.OneCycleLR(optimiser, 3e-3, total_steps=steps)
+    x_train, y_train = xn[train], torch.tensor(labels[train])
+    for _ in range(steps):
+        batch = torch.randint(0, len(train), (256,))
+        loss = torch.nn.functional.binary_cross_entropy_with_logits(net(x_train[batch]),
+                                                                    y_train[batch])
+        optimiser.zero_grad()
+        loss.backward()
+        optimiser.step()
+        schedule.step()
+    with torch.no_grad():
+        return torch.sigmoid(net(xn)).numpy()
+
+
+def set_figures(prob, labels, rows, unknown) -> dict:
+    """Exact-set share and, per margin, fallback share, exactness on the answered rows and the
+    share of rows answered with a missed contact, over ``rows``."""
+    predicted, truth = prob[rows] > 0.5, labels[rows] > 0.5
+    exact = (predicted == truth).all(axis=1) & ~np.isin(rows, unknown)
+    out = {"exact_set": float(exact.mean()), "margins": {}}
+    for margin in MARGINS:
+        sure = ((prob[rows] < margin) | (prob[rows] > 1 - margin)).all(axis=1)
+        missed = (truth & ~predicted).any(axis=1) & sure
+        out["margins"][margin] = {
+            "fallback": float(1 - sure.mean()),
+            "exact_answered": float(exact[sure].mean()) if sure.any() else 1.0,
+            "missed_rows": float(missed.mean())}
+    return out
+
+
+def probe(data: dict, pair: str, hidden: int, epochs: int, seed: int) -> dict:
+    """The ``global`` and per-corner ``local`` figures (module docstring) of one pair."""
+    scene = load_scene("quay_crane_detail")
+    a, b = pair.split("/")
+    parts_a, parts_b = scene.body(a).parts, scene.body(b).parts
+    n = len(data["push"])
+    pose = np.repeat(np.arange(n), np.diff(data["contact_offsets"]))
+    part_a, part_b = data["contact_part_a"].astype(int), data["contact_part_b"].astype(int)
+    keys = part_a * 4096 + part_b
+    order = np.random.default_rng(seed).permutation(n)
+    train, held = order[:int(SPLIT[0] * n)], order[int(SPLIT[1] * n):]
+    rotation = quaternion_to_matrix(data["quaternion_b"])
+    vocab, labels, unknown = label_matrix(keys, pose, n, train)
+    prob = train_classifier(_features(data["position_b"], rotation), labels, train, hidden,
+                            epochs, seed)
+    figures = {"rows": n, "global": {"labels": len(vocab)} | set_figures(prob, labels, held,
+                                                                         unknown)}
+    b_group = B_GROUPS[scene.body(b).spec["generator"]]
+    groups_a = np.array([parts_a[i].name.split("/")[0] for i in part_a])
+    groups_b = np.array([parts_b[j].name.split("/")[0] for j in part_b])
+    for corner in CORNERS:
+        mine = (groups_a == f"casting_top_{corner}") | (groups_b == f"{b_group}_{corner}")
+        vocab, labels, unknown = label_matrix(keys[mine], pose[mine], n, train)
+        offset = (np.einsum("nij,j->ni", rotation, _centre(parts_b, f"{b_group}_{corner}"))
+                  - _centre(parts_a, f"casting_top_{corner}"))
+        prob = train_classifier(_features(data["position_b"], rotation, offset), labels, train,
+                                hidden, epochs, seed)
+        figures[f"local_{corner}"] = {"labels": len(vocab)} | set_figures(prob, labels, held,
+                                                                          unknown)
+    return figures
+
+
+def report(figures: dict) -> str:
+    """The figures as a markdown table."""
+    lines = [f"rows: {figures['rows']} (held out: {1 - SPLIT[1]:.0%})", "",
+             "| classifier | labels | exact set | " + " | ".join(
+                 f"margin {m}: fallback / exact answered / missed" for m in MARGINS) + " |",
+             "|---|---|---|" + "---|" * len(MARGINS)]
+    for name, f in figures.items():
+        if name == "rows":
+            continue
+        cells = [f"{f['margins'][m]['fallback']:.1%} / {f['margins'][m]['exact_answered']:.2%}"
+                 f" / {f['margins'][m]['missed_rows']:.2%}" for m in MARGINS]
+        lines.append(f"| {name} | {f['labels']} | {f['exact_set']:.1%} | "
+                     + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--pair", default="container40/spreader", help="a/b of quay_crane_detail")
+    parser.add_argument("--rows", type=int, default=30000, help="first-contact rows to label")
+    parser.add_argument("--data", type=Path, help="npz cache of the labelled rows")
+    parser.add_argument("--hidden", type=int, default=128, help="width of the hidden layers")
+    parser.add_argument("--epochs", type=int, default=60, help="passes over the training rows")
+    parser.add_argument("--seed", type=int, default=7)
+    args = parser.parse_args(argv)
+    start = time.perf_counter()
+    data = labelled_rows(args.pair, args.rows, args.seed, args.data)
+    print(report(probe(data, args.pair, args.hidden, args.epochs, args.seed)))
+    print(f"\n{time.perf_counter() - start:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
