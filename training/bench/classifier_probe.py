@@ -14,6 +14,13 @@ Two inputs are compared:
   pairs of A's group ``casting_top_<c>`` or B's group ``<B group>_<c>`` (a bottom casting, a
   twistlock head), with the pose of B's group relative to A's group as input.
 
+With ``--experts K`` it also regresses the contact of the K most frequent part pairs (one MLP
+each, on the pose of B's part relative to A's part), once over all of a pair's rows and once per
+region of the pair (its contact type and the two features: finer than issue #21's coarse
+regions, an upper bound of what region experts can reach), and reports the p99 errors against
+the scene's tolerances (normal 1 degree, point ``Scene.point_tolerance_m``, depth 2 % of the
+depth range).
+
 Usage::
 
     python -m impactnet.training.bench.classifier_probe --pair container40/spreader \\
@@ -154,6 +161,94 @@ def probe(data: dict, pair: str, hidden: int, epochs: int, seed: int) -> dict:
     return figures
 
 
+def _regress(x, y, train, test, hidden: int, epochs: int, seed: int) -> np.ndarray:
+    """Predictions (len(test), w) of a 2-layer tanh MLP fitted to ``y`` by squared error."""
+    import torch
+
+    x_mean, x_std = x[train].mean(axis=0), x[train].std(axis=0) + 1e-9
+    y_mean, y_std = y[train].mean(axis=0), y[train].std(axis=0) + 1e-9
+    xt = torch.tensor(((x - x_mean) / x_std).astype(np.float32))
+    yt = torch.tensor(((y - y_mean) / y_std).astype(np.float32))
+    torch.manual_seed(seed)
+    net = torch.nn.Sequential(torch.nn.Linear(x.shape[1], hidden), torch.nn.Tanh(),
+                              torch.nn.Linear(hidden, hidden), torch.nn.Tanh(),
+                              torch.nn.Linear(hidden, y.shape[1]))
+    optimiser = torch.optim.Adam(net.parameters(), 3e-3)
+    steps = max(1, epochs * (len(train) // 128))
+    schedule = torch.optim.lr_scheduler.OneCycleLR(optimiser, 3e-3, total_steps=steps)
+    generator = torch.Generator().manual_seed(seed)
+    for _ in range(steps):
+        batch = torch.from_numpy(train)[torch.randint(0, len(train), (128,),
+                                                      generator=generator)]
+        loss = ((net(xt[batch]) - yt[batch]) ** 2).mean()
+        optimiser.zero_grad()
+        loss.backward()
+        optimiser.step()
+        schedule.step()
+    with torch.no_grad():
+        return net(xt[test]).numpy() * y_std + y_mean
+
+
+def expert_figures(data: dict, pair: str, top: int, hidden: int, epochs: int,
+                   seed: int) -> list[dict]:
+    """p99 errors of per-part-pair and per-region regressors (module docstring)."""
+    scene = load_scene("quay_crane_detail")
+    a, b = pair.split("/")
+    parts_a, parts_b = scene.body(a).parts, scene.body(b).parts
+    n = len(data["push"])
+    pose = np.repeat(np.arange(n), np.diff(data["contact_offsets"]))
+    part_a, part_b = data["contact_part_a"].astype(int), data["contact_part_b"].astype(int)
+    region = (data["contact_type"].astype(np.int64) * 2**40
+              + data["contact_feature_a"].astype(np.int64) * 2**20 + data["contact_feature_b"])
+    rotation = quaternion_to_matrix(data["quaternion_b"])
+    depth_tol = 0.02 * scene.smaller_shortest_edge((a, b)) * scene.depth_fraction[1]
+    keys, counts = np.unique(part_a * 4096 + part_b, return_counts=True)
+    out = []
+    for key in keys[np.argsort(-counts)][:top]:
+        i, j = divmod(int(key), 4096)
+        centre_a, centre_b = (0.5 * np.add(*bounds(p)) for p in (parts_a[i], parts_b[j]))
+        point_tol = scene.point_tolerance_m((a, b), parts_a[i].name, parts_b[j].name)
+        rows = np.flatnonzero(part_a * 4096 + part_b == key)
+        groups = {"part pair": [rows]}
+        main_region = np.unique(region[rows], return_counts=True)
+        groups["largest region"] = [rows[region[rows] == main_region[0][np.argmax(
+            main_region[1])]]]
+        entry = {"pair": f"{parts_a[i].name} / {parts_b[j].name}", "rows": len(rows)}
+        for name, (chosen,) in groups.items():
+            p = pose[chosen]
+            x = _features(data["position_b"][p], rotation[p],
+                          np.einsum("nij,j->ni", rotation[p], centre_b) - centre_a)
+            y = np.c_[data["contact_depth"][chosen], data["contact_normal"][chosen],
+                      data["contact_point"][chosen] - centre_a]
+            order = np.random.default_rng(seed).permutation(len(chosen))
+            cut = int(0.8 * len(chosen))
+            got = _regress(x, y, order[:cut], order[cut:], hidden, epochs, seed)
+            want = y[order[cut:]]
+            normal = got[:, 1:4] / np.linalg.norm(got[:, 1:4], axis=1, keepdims=True)
+            angle = np.degrees(np.arctan2(np.linalg.norm(np.cross(normal, want[:, 1:4]), axis=1),
+                                          np.einsum("ij,ij->i", normal, want[:, 1:4])))
+            entry[name] = {
+                "rows": len(chosen),
+                "depth": float(np.quantile(np.abs(got[:, 0] - want[:, 0]), 0.99) / depth_tol),
+                "normal": float(np.quantile(angle, 0.99) / scene.accuracy.normal_deg),
+                "point": float(np.quantile(np.linalg.norm(got[:, 4:] - want[:, 4:], axis=1),
+                                           0.99) / point_tol)}
+        out.append(entry)
+    return out
+
+
+def expert_report(entries: list[dict]) -> str:
+    """The expert figures as a markdown table (p99 error / tolerance: <= 1 meets it)."""
+    lines = ["| part pair | experts on | rows | depth p99 / tol | normal p99 / tol | "
+             "point p99 / tol |", "|---|---|---|---|---|---|"]
+    for entry in entries:
+        for name in ("part pair", "largest region"):
+            f = entry[name]
+            lines.append(f"| {entry['pair']} | {name} | {f['rows']} | {f['depth']:.2f} | "
+                         f"{f['normal']:.2f} | {f['point']:.2f} |")
+    return "\n".join(lines)
+
+
 def report(figures: dict) -> str:
     """The figures as a markdown table."""
     lines = [f"rows: {figures['rows']} (held out: {1 - SPLIT[1]:.0%})", "",
@@ -178,10 +273,15 @@ def main(argv=None) -> int:
     parser.add_argument("--hidden", type=int, default=128, help="width of the hidden layers")
     parser.add_argument("--epochs", type=int, default=60, help="passes over the training rows")
     parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--experts", type=int, default=0,
+                        help="also regress the contacts of this many most frequent part pairs")
     args = parser.parse_args(argv)
     start = time.perf_counter()
     data = labelled_rows(args.pair, args.rows, args.seed, args.data)
     print(report(probe(data, args.pair, args.hidden, args.epochs, args.seed)))
+    if args.experts:
+        print("\n" + expert_report(expert_figures(data, args.pair, args.experts, 64, 150,
+                                                  args.seed)))
     print(f"\n{time.perf_counter() - start:.0f} s")
     return 0
 

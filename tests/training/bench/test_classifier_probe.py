@@ -37,3 +37,16 @@ def test_the_probe_reports_shares_that_fall_with_the_margin(stacking_rows):
         assert fallback == sorted(fallback, reverse=True)  # a wider margin answers more rows
     assert figures["local_fl"]["labels"] < figures["global"]["labels"]
     assert "| global |" in cp.report(figures)
+
+
+def test_expert_figures_are_error_ratios_of_the_most_frequent_part_pairs(stacking_rows):
+    entries = cp.expert_figures(stacking_rows, "container40/container40", top=2, hidden=8,
+                                epochs=2, seed=0)
+    assert len(entries) == 2 and entries[0]["rows"] >= entries[1]["rows"]
+    for entry in entries:
+        whole, region = entry["part pair"], entry["largest region"]
+        assert whole["rows"] == entry["rows"] >= region["rows"] > 0
+        for figures in (whole, region):
+            assert all(np.isfinite(figures[k]) and figures[k] >= 0.0
+                       for k in ("depth", "normal", "point"))
+    assert "| largest region |" in cp.expert_report(entries)
