@@ -85,6 +85,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     compound.add_argument("--plot", metavar="PNG", help="write the plot of cost against detail "
                           "there (default: compound_cost_vs_detail.png in --out)")
     compound.add_argument("--seed", type=int, default=1, help="pose seed (default 1)")
+    decide = sub.add_parser(
+        "decide", help="per pair of a box scene: exact-only or learned, by issue #21's rule",
+        description="Per pair of a box scene: the exact solver and the bundle's auto mode "
+                    "(fallback included) timed at N = 1 and N = 1e5 on the pair's first-contact "
+                    "poses, auto scored at the scene's tolerance, and the decision: learned "
+                    "only where auto is >= 2x faster at both and within tolerance.")
+    decide.add_argument("--quick", action="store_true", help="2,000 poses per pair")
+    decide.add_argument("--scene", default="quay_crane", help="scene name or TOML path")
+    decide.add_argument("--bundle", default=None, help="bundle folder (default: the shipped)")
+    decide.add_argument("--out", metavar="DIR", help="write decide.md and decide.json there")
+    decide.add_argument("--seed", type=int, default=0, help="pose seed (default 0)")
 
 
 def _pin_single_thread() -> None:
@@ -105,6 +116,17 @@ def run(args: argparse.Namespace) -> int:
             f" --seed {args.seed}" if args.seed != 1 else "")
         return run_compound(quick=args.quick, out=args.out, seed=args.seed, command=command,
                             plot_path=args.plot)
+    if getattr(args, "bench_command", None) == "decide":
+        from dataclasses import replace
+
+        from impactnet.training.bench.decide import QUICK as DECIDE_QUICK
+        from impactnet.training.bench.decide import DecideConfig
+        from impactnet.training.bench.decide import run as run_decide
+
+        config = replace(DECIDE_QUICK if args.quick else DecideConfig(), scene=args.scene,
+                         bundle=args.bundle, seed=args.seed)
+        run_decide(config, args.out)
+        return 0
     if getattr(args, "bench_command", None) == "exact":
         from impactnet.training.bench.exact import run as run_exact
 
