@@ -9,7 +9,6 @@ from __future__ import annotations
 import http.client
 import io
 import os
-import shutil
 import subprocess
 import threading
 import time
@@ -19,10 +18,8 @@ import numpy as np
 import orjson
 
 from impactnet.service.fleet import local
+from tests.apt_packages import Unavailable, apt_install  # noqa: F401 (the fixtures' skip)
 
-#: Seconds allowed for ``apt-get install nginx`` (downloads on a cold machine) and for another
-#: apt-get that holds the dpkg lock to finish first.
-APT_TIMEOUT_S = 600
 #: Seconds a client waits for one answer before it counts the request as failed.
 CLIENT_TIMEOUT_S = 30.0
 #: The paper's cubes as raw sizes (every mode answers them; mode exact here).
@@ -31,26 +28,13 @@ PAIR = {"a": {"size": [2.0, 2.0, 2.0], "position": [0.0, 0.0, 0.0], "quaternion"
         "mode": "exact"}
 
 
-class Unavailable(RuntimeError):
-    """No nginx can be found or installed here (the message says why)."""
-
-
 def nginx_binary() -> str:
     """Debian's nginx: found on PATH or in /usr/sbin, else installed with apt-get (as the
     PostgreSQL tests do) where we are root; raises :class:`Unavailable` otherwise."""
     found = local.find_nginx()
     if found:
         return found
-    if os.geteuid() != 0 or shutil.which("apt-get") is None:
-        raise Unavailable("nginx is not installed and cannot be installed here (needs root "
-                          "and apt-get)")
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    lock = f"DPkg::Lock::Timeout={APT_TIMEOUT_S}"
-    for command in (["apt-get", "update"], ["apt-get", "install", "-y", "-o", lock, "nginx"]):
-        done = subprocess.run(command, env=env, capture_output=True, text=True,
-                              timeout=2 * APT_TIMEOUT_S)
-        if done.returncode != 0:
-            raise Unavailable(f"{' '.join(command)} failed: {done.stderr.strip()[-400:]}")
+    apt_install("nginx", "nginx")
     found = local.find_nginx()
     if found is None:
         raise Unavailable("apt-get installed nginx but no nginx binary was found")

@@ -13,7 +13,6 @@ the DOM's text (what the scripts rendered), not the HTML that the server sent.
 from __future__ import annotations
 
 import json
-import os
 import re
 import shutil
 import subprocess
@@ -21,9 +20,8 @@ import tempfile
 from html.parser import HTMLParser
 from pathlib import Path
 
-#: Seconds allowed for ``apt-get update`` and ``apt-get install chromium`` (a cold machine
-#: downloads ~100 MB; it took 26 s here).
-APT_TIMEOUT_S = 600
+from tests.apt_packages import Unavailable, apt_install
+
 #: Seconds one headless run may take (a page renders in 2-3 s).
 RUN_TIMEOUT_S = 120
 #: Virtual time a page gets for its scripts before the DOM is dumped or the screenshot taken:
@@ -54,27 +52,11 @@ BASE_FLAGS = [
 _NOT_TEXT = {"script", "style", "noscript", "template"}
 
 
-class Unavailable(RuntimeError):
-    """No headless Chromium can be run here (the message says why)."""
-
-
-def _install() -> None:
-    if os.geteuid() != 0 or shutil.which("apt-get") is None:
-        raise Unavailable("chromium is not installed and cannot be installed here (needs root "
-                          "and apt-get)")
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    for command in (["apt-get", "update"], ["apt-get", "install", "-y", "chromium"]):
-        done = subprocess.run(command, env=env, capture_output=True, text=True,
-                              timeout=APT_TIMEOUT_S)
-        if done.returncode != 0:
-            raise Unavailable(f"{' '.join(command)} failed: {done.stderr.strip()[-400:]}")
-
-
 def find() -> str:
     """The ``chromium`` executable, installed first if needed; raises Unavailable."""
     found = shutil.which("chromium")
     if found is None:
-        _install()
+        apt_install("chromium", "chromium")
         found = shutil.which("chromium")
         if found is None:
             raise Unavailable("apt-get installed chromium but no chromium is on PATH")

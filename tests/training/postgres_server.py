@@ -19,16 +19,12 @@ import tempfile
 import time
 from dataclasses import dataclass
 
-#: Seconds allowed for ``apt-get install postgresql`` (downloads on a cold machine).
-APT_TIMEOUT_S = 600
+from tests.apt_packages import Unavailable, apt_install
+
 #: Seconds allowed for the server to accept connections after ``pg_ctl start``.
 START_TIMEOUT_S = 60
 #: The system user that owns the cluster when the tests run as root.
 SERVER_USER = "postgres"
-
-
-class Unavailable(RuntimeError):
-    """No PostgreSQL server can be started here (the message says why)."""
 
 
 @dataclass
@@ -49,18 +45,6 @@ def _bin_dir() -> str | None:
     return os.path.dirname(candidates[-1]) if candidates else None
 
 
-def _install() -> None:
-    if os.geteuid() != 0 or shutil.which("apt-get") is None:
-        raise Unavailable("PostgreSQL (initdb, pg_ctl) is not installed and cannot be installed "
-                          "here (needs root and apt-get)")
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    for command in (["apt-get", "update"], ["apt-get", "install", "-y", "postgresql"]):
-        done = subprocess.run(command, env=env, capture_output=True, text=True,
-                              timeout=APT_TIMEOUT_S)
-        if done.returncode != 0:
-            raise Unavailable(f"{' '.join(command)} failed: {done.stderr.strip()[-400:]}")
-
-
 def _free_port() -> int:
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
@@ -77,7 +61,7 @@ def start() -> Server:
     """Start a cluster (module docstring); raises Unavailable with the reason."""
     bin_dir = _bin_dir()
     if bin_dir is None:
-        _install()
+        apt_install("postgresql", "PostgreSQL (initdb, pg_ctl)")
         bin_dir = _bin_dir()
         if bin_dir is None:
             raise Unavailable("apt-get installed postgresql but no initdb was found")
