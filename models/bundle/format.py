@@ -40,6 +40,10 @@ FORMAT_VERSION = 2  # 2: the region classifier is the exact labeller (no classif
 MANIFEST = "manifest.json"
 WEIGHTS = "weights.safetensors"
 _AUTO_KEYS = ("confidence_min", "normal_spread_max_deg", "point_spread_max", "depth_margin")
+#: A pair's ``decision.serve``: its learned models answer (the modes as documented), or the
+#: exact solver answers it in every mode (issue #21's per-pair decision: the learned path was
+#: measured and did not pay).
+SERVE_LEARNED, SERVE_EXACT_ONLY = "learned", "exact-only"
 
 
 class BundleError(ValueError):
@@ -69,6 +73,8 @@ class PairModels:
     regions: tuple[str, ...]  # the regions with a committee; regions[0] == "none"
     experts: dict[str, tuple[str, ...]] = field(default_factory=dict)  # region -> MLP names
     auto: AutoThresholds | None = None  # fallback thresholds of auto, or None
+    serve: str = "learned"  # SERVE_LEARNED, or SERVE_EXACT_ONLY: every mode answers exactly
+    decision: dict | None = None  # manifest `decision`: how `serve` was chosen, with figures
 
 
 @dataclass(frozen=True)
@@ -141,7 +147,22 @@ def _pair_models(key: str, entry, mlps: dict[str, MLP]) -> PairModels:
         if not 0.0 <= values[0] <= 1.0 or min(values[1:]) < 0.0:
             raise BundleError(f"{where}.auto: confidence_min in [0, 1], the others >= 0")
         auto = AutoThresholds(*values)
-    return PairModels(key, size_a, size_b, depth, single, labeller, regions, experts, auto)
+    serve, decision = _decision(entry.get("decision"), where)
+    return PairModels(key, size_a, size_b, depth, single, labeller, regions, experts, auto,
+                      serve, decision)
+
+
+def _decision(block, where: str) -> tuple[str, dict | None]:
+    """(serve, the block) of a pair's optional ``decision``: ``{"serve": "learned" |
+    "exact-only", "figures": {...}, ...}``; no block: learned."""
+    if block is None:
+        return SERVE_LEARNED, None
+    if not isinstance(block, dict) or not isinstance(block.get("figures"), dict):
+        raise BundleError(f"{where}.decision: expected an object with `serve` and `figures`")
+    if block.get("serve") not in (SERVE_LEARNED, SERVE_EXACT_ONLY):
+        raise BundleError(f"{where}.decision.serve: {SERVE_LEARNED!r} or "
+                          f"{SERVE_EXACT_ONLY!r}, got {block.get('serve')!r}")
+    return block["serve"], block
 
 
 def _committee(entry: dict, mlps: dict[str, MLP], where: str):

@@ -19,7 +19,8 @@ returns the committee's spread. Stages of a call:
    block pass maps the canonical points to the world. Asked for the spread, it also flags the
    rows its pair's calibrated thresholds do not trust (``unsure``, for the auto chain).
 4. The exact solver answers, in one call (:func:`impactnet.models.box.exact.box_box`), the
-   rows whose region has no committee (``unknown``).
+   rows whose region has no committee and the rows of a pair that the bundle serves
+   exact-only (its ``decision``, issue #21), both flagged ``unknown``.
 
 Fields of a learned answer: ``single`` predicts no contact type, so its rows have
 ``colliding`` True, ``contact_type_code`` 0 and features / axis -1 (not predicted), and
@@ -172,6 +173,9 @@ class LearnedPredictor:
             pair = self.runtime(code)
             if pair is None:
                 out.unsupported[slice(None) if rows is None else rows] = True
+                continue
+            if pair.exact_only:  # the bundle's decision: the exact solver answers this pair
+                out.unknown[slice(None) if rows is None else rows] = True
                 continue
             group = inputs if rows is None else inputs.take(rows)
             part = out if rows is None else Output(len(rows))

@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from impactnet.models import contacts as ct
-from impactnet.models.box.exact_one import answer_one
+from impactnet.models.box.exact_one import answer_one, box_box_one
 from impactnet.models.geometry.rotations import quaternion_matrix
 from impactnet.models.learned.canonical import FALLBACK_NORMAL, FLIP_FEATURES, NORMAL_NORM_MIN
 from impactnet.models.learned.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UnsupportedPairError
@@ -112,6 +112,8 @@ def predict_one(predictor, values, spread: bool = True, confident_only: bool = F
     if pair is None:
         raise UnsupportedPairError([0], [p.key for p in predictor.pairs
                                          if p.supports(predictor.mode)], predictor.mode)
+    if pair.exact_only:  # the bundle's decision: the exact solver answers this pair
+        return (None, None) if confident_only else (box_box_one(*values), 0.0, 0.0)
     swapped = code % 2 == 1
     solved = values[3:] + values[:3] if swapped else values
     if predictor.mode == "single":

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from impactnet.models import contacts as ct
-from impactnet.models.bundle.format import AutoThresholds, Bundle, PairModels
+from impactnet.models.bundle.format import SERVE_EXACT_ONLY, AutoThresholds, Bundle, PairModels
 from impactnet.models.geometry import box_features as bf
 from impactnet.models.learned.canonical import parse_region_key
 from impactnet.models.learned.mlp import MLPStack
@@ -46,6 +46,7 @@ class PairRuntime:
         self.inv_scale = 1.0 / self.scale
         self.edge = float(2.0 * min(half_a.min(), half_b.min()))  # e, metres
         self.auto: AutoThresholds | None = models.auto
+        self.exact_only = models.serve == SERVE_EXACT_ONLY  # every mode answers exactly
         margin = models.auto.depth_margin if models.auto else DEFAULT_DEPTH_MARGIN
         self.depth_lo = models.depth_fraction[0] - margin  # fractions of e
         self.depth_hi = models.depth_fraction[1] + margin
@@ -85,7 +86,10 @@ class PairRuntime:
                 self.k_groups.append([sizes[region], position, position + 1])
 
     def supports(self, mode: str) -> bool:
-        """Whether this pair has the models of ``mode`` (auto needs its thresholds too)."""
+        """Whether this pair has the models of ``mode`` (auto needs its thresholds too); an
+        exact-only pair supports every mode (the exact solver answers)."""
+        if self.exact_only:
+            return True
         if mode == "single":
             return self.single is not None
         if mode == "committee":
