@@ -124,6 +124,11 @@ def learned_predictors(bundle: Bundle) -> tuple[dict, dict[str, str]]:
     return predictors, unavailable
 
 
+#: The figures of a pair's decision that GET /v1/models shows (the manifest has them all).
+DECISION_FIGURES = ("speedup_n1", "speedup_batch", "fallback_share", "normal_p99_deg",
+                    "point_p99_fraction", "poses")
+
+
 def describe(bundle: Bundle, path: Path, scene: SceneView) -> dict:
     """The bundle as GET /v1/models shows it: path, version, scene and hash, creation,
     checksums, the pairs it covers with their modes, validation metrics and auto
@@ -140,6 +145,9 @@ def describe(bundle: Bundle, path: Path, scene: SceneView) -> dict:
             "regions": len(models.regions),
             "auto": None if models.auto is None else dict(models.auto.__dict__),
             "validation": entry.get("validation", {}),
+            "serve": models.serve,  # "exact-only": every mode answers it exactly (issue #21)
+            "decision": None if models.decision is None else {
+                k: models.decision["figures"].get(k) for k in DECISION_FIGURES},
         }
     table = PairTable([(m.size_a, m.size_b) for m in bundle.pairs.values()])
     covered, missing = [], []

@@ -69,11 +69,13 @@ def _content():
 
 
 def write_bundle(folder: Path, scene_path: Path, version: str = "svc-test-1",
-                 scene_hash: str | None = None, nonsense_outputs: bool = False) -> Path:
+                 scene_hash: str | None = None, nonsense_outputs: bool = False,
+                 exact_only: tuple[str, ...] = ()) -> Path:
     """The test bundle for the scene at ``scene_path`` (or with another ``scene_hash``),
     with manifest version ``version``, written to ``folder``. ``nonsense_outputs``: every
     MLP's outputs shifted by 3 (points 3 L away), a well-formed bundle (checksums fine) that
-    answers nonsense and fails the smoke test."""
+    answers nonsense and fails the smoke test. ``exact_only``: pairs whose recorded decision is
+    to serve them exactly (issue #21)."""
     manifest, tensors = _content()
     if nonsense_outputs:
         tensors = {k: (v + NONSENSE_SHIFT if k.endswith(".out_mean") else v)
@@ -84,6 +86,10 @@ def write_bundle(folder: Path, scene_path: Path, version: str = "svc-test-1",
     manifest["version"] = version
     for entry in manifest["pairs"].values():
         entry["validation"] = {"region_accuracy": 0.9, "normal_median_deg": 3.0}
+    for key in exact_only:
+        manifest["pairs"][key]["decision"] = {"serve": "exact-only", "figures": {
+            "speedup_n1": 0.9, "speedup_batch": 0.7, "fallback_share": 0.2,
+            "normal_p99_deg": 0.0, "point_p99_fraction": 0.01, "poses": 100_000}}
     return write_test_bundle(folder, content=(manifest, tensors))
 
 

@@ -80,10 +80,29 @@ def test_models_reports_the_bundle(learned, files):
     assert pair["validation"] == {"region_accuracy": 0.9, "normal_median_deg": 3.0}
     assert set(pair["auto"]) == {"confidence_min", "normal_spread_max_deg",
                                  "point_spread_max", "depth_margin"}
+    assert pair["serve"] == "learned" and pair["decision"] is None  # no decision recorded
     assert bundle["scene_pairs_covered"] == ["brick/slab", "cube/cube"]
     assert bundle["scene_pairs_not_covered"] == ["plank/cube"]
     smoke = bundle["smoke"]["pairs"]["cube/cube"]["committee"]
     assert smoke["normal_median_deg"] < 15 and smoke["colliding_agreement"] > 0.8
+
+
+def test_a_pair_the_bundle_serves_exact_only_is_answered_exactly_in_every_mode(files):
+    """Issue #21: the recorded decision reaches the API: /v1/models shows it, and every mode
+    answers the pair as mode exact does, naming the exact solver."""
+    folder = write_bundle(files["root"] / "decided", files["scene"], version="svc-decided",
+                          exact_only=("brick/slab",))
+    app = create_app(test_settings(scene=str(files["scene"]), bundle=str(folder)))
+    with TestClient(app) as client:
+        pairs = client.get("/v1/models").json()["bundle"]["pairs"]
+        assert pairs["brick/slab"]["serve"] == "exact-only"
+        assert pairs["brick/slab"]["decision"]["speedup_n1"] == 0.9
+        assert pairs["cube/cube"]["serve"] == "learned"
+        exact = client.post(URL, json=ON_SLAB | {"mode": "exact"}).json()
+        for mode in ("single", "committee", "auto"):
+            body = client.post(URL, json=ON_SLAB | {"mode": mode}).json()
+            assert body["predictor"] == "exact", mode
+            assert body["point"] == exact["point"] and body["normal"] == exact["normal"]
 
 
 # ----------------------------------------------------------------------------- one pair

@@ -11,8 +11,10 @@ exact solver at both sizes and its p99 normal and point errors meet the scene's
 
     impactnet bench decide --scene quay_crane [--quick] [--out DIR]
 
-This measures and reports the decision; recording it in the bundle and honouring it in the
-service is the next step of the issue.
+``impactnet train`` takes the same measurement when it builds a bundle and records each pair's
+decision in it (:mod:`impactnet.training.jobs.decisions`); the service then answers an
+exact-only pair through the exact solver in every mode. This command measures the learned path
+of a bundle as it stands (recorded decisions lifted) and shows the recorded ones beside.
 """
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from impactnet.training.bench.errors import method_summary, row_errors
-from impactnet.training.bench.methods import exact_method, learned_methods
+from impactnet.training.bench.methods import exact_method, learned_bundle, predictor_method
 from impactnet.training.bench.pose_sets import scene_poses
 from impactnet.training.bench.timing import machine_info, median_per_call, median_repeated
 
@@ -82,6 +84,16 @@ def measure_pair(exact, auto, args: tuple, scale: np.ndarray, config: DecideConf
                                    else summary.point_pct_p99 / 100.0)}
 
 
+def learned_auto(bundle, scene_name: str):
+    """(the ``auto`` method of the learned path, {pair: recorded ``serve``}) of ``bundle``, by
+    default the shipped ``models/bundles/<scene>`` (:func:`learned_bundle`)."""
+    from impactnet.models.predictors import DEFAULT_BUNDLE, load_predictor
+
+    learned, recorded = learned_bundle(bundle if bundle is not None else
+                                       DEFAULT_BUNDLE.parent / scene_name)
+    return predictor_method("auto", load_predictor("auto", learned), "learned"), recorded
+
+
 def decide(config: DecideConfig) -> dict:
     """The decision of every pair of ``config.scene`` with its figures, and the machine."""
     from impactnet.models.scenes import load_scene
@@ -89,9 +101,7 @@ def decide(config: DecideConfig) -> dict:
     scene = load_scene(config.scene)
     scene.require_box_pairs("impactnet bench decide")
     exact = exact_method()
-    auto = learned_methods(("auto",), config.bundle)[0]
-    if auto.unavailable:
-        raise ValueError(f"mode auto is not available: {auto.unavailable}")
+    auto, recorded = learned_auto(config.bundle, scene.name)
     poses = scene_poses(scene, config.poses_per_pair * len(scene.pairs), config.seed)
     pairs = []
     for k, pair in enumerate(scene.pairs):
@@ -99,6 +109,7 @@ def decide(config: DecideConfig) -> dict:
         row = {"pair": pair.key} | measure_pair(exact, auto, poses.args(rows),
                                                 poses.scale[rows], config)
         row["decision"] = _decision(row, scene.accuracy)
+        row["recorded"] = recorded.get(pair.key)
         pairs.append(row)
     return {"scene": scene.name, "config": asdict(config), "machine": machine_info(),
             "rule": {"speedup_required": SPEEDUP_REQUIRED,
@@ -111,6 +122,9 @@ def report(result: dict) -> str:
     """The decisions as markdown."""
     rule = result["rule"]
     lines = [f"# Per-pair decision: scene `{result['scene']}`", "",
+             "`impactnet bench decide`: the bundle's learned path (its recorded decisions "
+             "lifted) against the exact solver, on the same first-contact poses of each pair.",
+             "",
              f"A pair is learned only where `auto` (fallback rows included) is at least "
              f"{rule['speedup_required']:g}x faster than the exact solver at N = 1 and at "
              f"N = {result['config']['poses_per_pair']:,}, with p99 errors within "
@@ -118,7 +132,7 @@ def report(result: dict) -> str:
              f"and no missed contact. Bundle `{result['version']}`.", "",
              "| pair | exact N=1 µs | auto N=1 µs | speed-up N=1 | exact batch µs/pair | "
              "auto batch µs/pair | speed-up batch | auto fallback | normal p99 ° | "
-             "point p99 | missed | decision |", "|---" * 12 + "|"]
+             "point p99 | missed | decision | recorded |", "|---" * 13 + "|"]
     for p in result["pairs"]:
         normal = "-" if p["normal_p99_deg"] is None else f"{p['normal_p99_deg']:.3f}"
         point = "-" if p["point_p99_fraction"] is None else f"{p['point_p99_fraction']:.2%}"
@@ -127,7 +141,7 @@ def report(result: dict) -> str:
             f"{p['speedup_n1']:.2f}x | {p['exact_batch_us_per_pair']:.2f} | "
             f"{p['auto_batch_us_per_pair']:.2f} | {p['speedup_batch']:.2f}x | "
             f"{p['fallback_share']:.1%} | {normal} | {point} | {p['missed']} | "
-            f"**{p['decision']}** |")
+            f"**{p['decision']}** | {p.get('recorded') or '-'} |")
     return "\n".join(lines) + "\n"
 
 

@@ -12,6 +12,7 @@ report says "not available: <reason>": no figure is ever made up for it.
 """
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -90,19 +91,42 @@ def exact_method() -> Method:
 
 
 def learned_methods(names=LEARNED, bundle=None) -> list[Method]:
-    """``models.load_predictor(name)`` for each name; unavailable ones carry the reason."""
+    """``models.load_predictor(name)`` for each name, on the bundle's learned path (its
+    recorded per-pair decisions lifted: :func:`learned_bundle`, so that an exact-only pair is
+    measured as its models answer it); unavailable ones carry the reason."""
     from impactnet.models import load_predictor
+    from impactnet.models.predictors import DEFAULT_BUNDLE
 
     methods = []
     for name in names:
         try:
-            predictor = load_predictor(name, bundle) if bundle is not None else \
-                load_predictor(name)
+            learned, _ = learned_bundle(DEFAULT_BUNDLE if bundle is None else bundle)
+            predictor = load_predictor(name, learned)
         except Exception as exc:  # noqa: BLE001 - any load failure is reported, not raised
             methods.append(Method(name, "learned", unavailable=f"{type(exc).__name__}: {exc}"))
             continue
         methods.append(predictor_method(name, predictor, "learned"))
     return methods
+
+
+def learned_bundle(bundle) -> tuple:
+    """(the bundle with its recorded decisions lifted, {pair: the recorded ``serve``}).
+
+    ``bundle``: a bundle folder or a store (its ``current``). What it returns serves every pair
+    by its learned models, so that what is timed and scored is the learned path itself, never
+    the exact solver that an exact-only pair is served by.
+    """
+    import safetensors.numpy
+
+    from impactnet.models.bundle.format import WEIGHTS, bundle_in_memory, read_bundle
+    from impactnet.models.bundle.store import resolve_bundle
+
+    folder = resolve_bundle(bundle)
+    manifest = copy.deepcopy(read_bundle(folder).manifest)  # checksums verified
+    recorded = {key: (entry.pop("decision", None) or {}).get("serve")
+                for key, entry in manifest["pairs"].items()}
+    tensors = safetensors.numpy.load_file(folder / WEIGHTS)
+    return bundle_in_memory(manifest, tensors), recorded
 
 
 def _loop(one_pair: Callable, args, detail: bool, extras: tuple[str, ...] = ()) -> Answer:

@@ -157,6 +157,33 @@ def per_pair(results: dict) -> list[str]:
             ""]
 
 
+def decisions(results: dict) -> list[str]:
+    """Issue #21: which pairs the bundle serves learned, which exact-only, and why."""
+    recorded = results.get("decisions") or {}
+    if not any(recorded.values()):
+        return ["## Served per pair", "", "The bundle records no per-pair decision (trained "
+                "before issue #21): every pair is served by its learned models.", ""]
+    rows = []
+    for key, decision in recorded.items():
+        if not decision:
+            rows.append([key, "learned (no decision recorded)", *["-"] * 5])
+            continue
+        f = decision["figures"]
+        rows.append([key, decision["serve"], f"{f['speedup_n1']:.2f}x",
+                     f"{f['speedup_batch']:.2f}x at {f['poses']:,}",
+                     f"{100 * f['fallback_share']:.1f} %", _num(f["normal_p99_deg"]),
+                     _num(f["point_p99_fraction"] and 100 * f["point_p99_fraction"])])
+    return ["## Served per pair", "",
+            "Measured when the bundle was built (`impactnet.training.jobs.decisions`): a pair is "
+            "served by its learned models only where `auto`, fallback included, is at least 2x "
+            "faster than the exact solver at N = 1 and at the batch size and within tolerance. "
+            "An exact-only pair is answered by the exact solver in every mode, so its figures "
+            "above are the exact solver's.", "",
+            *_table(["pair", "served", "auto speed-up N = 1", "auto speed-up batch",
+                     "auto fallback", "auto normal p99 (deg)", "auto point p99 (% of e)"], rows),
+            ""]
+
+
 def paper(results: dict) -> list[str]:
     block = results["paper"]
     lines = ["## The paper's four-angle metric on the paper's protocol", ""]
@@ -219,7 +246,8 @@ def figures(paths: list[str]) -> list[str]:
 def markdown(results: dict, figure_files: list[str]) -> str:
     """The whole report."""
     parts = (header(results), goals(results), pooled(results), confusions(results),
-             per_pair(results), paper(results), boundary(results), figures(figure_files),
+             per_pair(results), decisions(results), paper(results), boundary(results),
+             figures(figure_files),
              ["Figures as JSON: evaluation.json. How to read this report: docs/evaluation.md.",
               ""])
     return "\n".join(line for part in parts for line in part)

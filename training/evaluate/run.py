@@ -257,6 +257,8 @@ def evaluate(scene: Scene, bundle_path, config: EvaluateConfig, log=_log) -> dic
         "tolerance": {"normal_deg": tolerance[0], "point_pct": tolerance[1]},
         "predictors": missing,
         "pairs": {names[b["index"]]: b["figures"] for b in per_pair},
+        "decisions": {key: (bundle.manifest["pairs"].get(key) or {}).get("decision")
+                      for key in names},
         "pooled": _pooled(per_pair, names, tolerance, seconds),
     }
     log("paper protocol")

@@ -146,6 +146,7 @@ class BundleSource:
             _log(f"{key} not taken from {self.label}: {change}")
             return None
         block = copy.deepcopy(self.manifest["pairs"][key])
+        block.pop("decision", None)  # measured again for the new bundle (jobs.decisions)
         names = _strings(block) & set(self.manifest["mlps"])
         trained_as = {int(m.group(1)) for m in map(_PAIR_PREFIX.match, names) if m}
         if len(trained_as) != 1 or not all(map(_PAIR_PREFIX.match, names)):

@@ -20,6 +20,8 @@ bundle
 3. Gate: :func:`impactnet.training.fit.validation_gate.validation_gate` on the new manifest; its
 verdict is
    stored in the manifest (``validation_gate``).
+   A passed bundle then gets each pair's decision (:mod:`impactnet.training.jobs.decisions`):
+   its learned path measured against the exact solver, served only where it pays.
 4. Write: the bundle goes to ``versions/<version>/`` when it passed (or the gate is not
    enforced), else to ``rejected/<version>/``, atomically
    (:func:`impactnet.models.bundle.format.write_bundle`).
@@ -55,7 +57,8 @@ from impactnet.training.fit.validation_gate import (
     validation_gate,
 )
 from impactnet.training.jobs.bundle_reuse import open_current
-from impactnet.training.jobs.scene import TrainConfig, build_manifest, train_pairs
+from impactnet.training.jobs.decisions import record_decisions
+from impactnet.training.jobs.scene import TrainConfig, build_manifest, train_log, train_pairs
 
 #: Default cache folder inside a store (hidden: not a version, not part of the served bundle).
 CACHE_SUBDIR = Path(".cache") / "pairs"
@@ -161,6 +164,9 @@ def run_train_job(scene: Scene, out, config: TrainConfig | None = None,
     gate = GateResult(gate.passed and all(c["met"] for c in served), gate.checks + served)
     manifest["validation_gate"] = {**gate.to_dict(), "enforced": job.enforce_gate}
     accepted = gate.passed or not job.enforce_gate
+    if accepted:  # the learned path passed its gate: is it worth serving, pair by pair?
+        manifest = record_decisions(scene, manifest, tensors, config.quick,
+                                    train_log if progress is not False else None)
     version = _unique_version(store, manifest["version"])
     manifest["version"] = version
     path = write_bundle(store / (VERSIONS if accepted else REJECTED) / version, manifest,

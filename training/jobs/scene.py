@@ -42,6 +42,7 @@ from impactnet.training.fit.committee import CommitteeConfig
 from impactnet.training.fit.loop import FitConfig
 from impactnet.training.fit.pair import PairResult, PairTrainConfig, train_pair
 from impactnet.training.fit.single import SingleConfig
+from impactnet.training.jobs.decisions import record_decisions
 
 #: Wall-clock budget of the default scene's training on the 2-core machine (issue 4), seconds.
 SCENE_BUDGET_S = 30 * 60
@@ -67,7 +68,7 @@ def quick_config(seed: int = 0) -> TrainConfig:
     return TrainConfig(pair=pair, workers=1, quick=True)
 
 
-def _log(message: str) -> None:
+def train_log(message: str) -> None:
     print(f"train: {message}", file=sys.stderr, flush=True)
 
 
@@ -105,7 +106,7 @@ def _reuse(scene: Scene, config: TrainConfig, indices: list[int], sources: list,
                 results[index] = hit
                 if reused is not None:
                     reused[hit.key] = source.label
-                _log(f"{hit.key} unchanged (same sizes, data and training settings): reused "
+                train_log(f"{hit.key} unchanged (same sizes, data and training settings): reused "
                      f"from {source.label}")
                 break
     return results
@@ -143,7 +144,7 @@ def train_pairs(scene: Scene, config: TrainConfig, progress: bool | None = None,
             bar.set_postfix_str(f"{result.key}: region acc {test['region_accuracy']:.3f}, "
                                 f"fallback {test['auto']['fallback_share']:.3f}")
             bar.update(1)
-            _log(f"{result.key} done in {result.seconds:.0f} s")
+            train_log(f"{result.key} done in {result.seconds:.0f} s")
 
         if missing:
             _train_missing(scene, config, missing, progress, done)
@@ -181,7 +182,9 @@ def build_manifest(scene: Scene, results: list[PairResult], config: TrainConfig,
 
 def train_scene(scene: Scene, out, config: TrainConfig | None = None,
                 progress: bool | None = None) -> tuple[Path, dict]:
-    """Train every pair of ``scene`` and write the bundle folder ``out``.
+    """Train every pair of ``scene``, measure each pair's learned path against the exact
+    solver and record the decision (:mod:`impactnet.training.jobs.decisions`), and write the
+    bundle folder ``out``.
 
     Returns
     -------
@@ -196,6 +199,7 @@ def train_scene(scene: Scene, out, config: TrainConfig | None = None,
     tensors = {k: v for r in results for k, v in r.tensors.items()}
     manifest = build_manifest(scene, results, config, out, tensors,
                               time.perf_counter() - start)
+    manifest = record_decisions(scene, manifest, tensors, config.quick, train_log)
     path = write_bundle(out, manifest, tensors)
     from impactnet.models.bundle.format import read_bundle
 

@@ -18,7 +18,7 @@ import pytest
 import safetensors.numpy
 
 from impactnet.models import load_predictor
-from impactnet.models.bundle.format import WEIGHTS
+from impactnet.models.bundle.format import WEIGHTS, read_bundle
 from impactnet.models.bundle.store import REJECTED, VERSIONS, current_version, resolve_bundle
 from impactnet.models.scenes import Accuracy, load_scene, scene_path
 from impactnet.training.data.pair_cache import PairCache, reprefix
@@ -73,6 +73,24 @@ def test_a_job_writes_a_version_and_points_current_at_it(paper_store):
     assert outcome.path.parent == store / VERSIONS
     assert outcome.manifest["validation_gate"]["passed"] is True
     assert load_predictor("auto", store) is not None
+
+
+def test_a_published_version_records_each_pairs_measured_decision(paper_store):
+    """Issue #21: every pair of the new version carries its decision and the figures behind it,
+    and the served bundle honours it (an exact-only pair is answered by the exact solver)."""
+    store, outcome, scene = paper_store
+    bundle = read_bundle(outcome.path)
+    for pair in scene.pairs:
+        decision = outcome.manifest["pairs"][pair.key]["decision"]
+        figures = decision["figures"]
+        assert decision["serve"] in ("learned", "exact-only")
+        assert bundle.pairs[pair.key].serve == decision["serve"]
+        assert figures["poses"] == decision["config"]["poses_per_pair"]
+        assert figures["speedup_n1"] > 0 and figures["speedup_batch"] > 0
+        assert 0.0 <= figures["fallback_share"] <= 1.0
+        fast = min(figures["speedup_n1"], figures["speedup_batch"]) >= 2.0
+        if not fast:
+            assert decision["serve"] == "exact-only"
 
 
 def test_failing_gate_leaves_current_untouched(paper_store):
