@@ -177,8 +177,9 @@ def decisions(results: dict) -> list[str]:
             "Measured when the bundle was built (`impactnet.training.jobs.decisions`): a pair is "
             "served by its learned models only where `auto`, fallback included, is at least 2x "
             "faster than the exact solver at N = 1 and at the batch size and within tolerance. "
-            "An exact-only pair is answered by the exact solver in every mode, so its figures "
-            "above are the exact solver's.", "",
+            "An exact-only pair is answered by the exact solver in every mode; the figures "
+            "above are its learned models' (evaluated with the decisions lifted), what the "
+            "decision weighed.", "",
             *_table(["pair", "served", "auto speed-up N = 1", "auto speed-up batch",
                      "auto fallback", "auto normal p99 (deg)", "auto point p99 (% of e)"], rows),
             ""]

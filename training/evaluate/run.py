@@ -2,8 +2,10 @@
 
 Stages of :func:`evaluate`:
 
-1. Load the bundle (checksums verified) and every predictor by ``models.load_predictor``; a
-   learned name the bundle cannot serve is reported as not available, not fatal.
+1. Load the bundle (checksums verified) and every predictor by ``models.load_predictor``, on
+   the bundle's learned models (its per-pair decisions lifted: an exact-only pair is evaluated
+   as its models answer it; the report lists what is served); a learned name the bundle cannot
+   serve is reported as not available, not fatal.
 2. Per body pair of the scene: fresh labelled test rows (:mod:`impactnet.training.evaluate.data`; a
    random stream no training run uses), each row's distance to the nearest region boundary,
    then each predictor on all rows in one call (timed), and per-row errors against the exact
@@ -34,6 +36,7 @@ from impactnet.models.bundle.store import resolve_bundle
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.predictors import PREDICTOR_NAMES, BundleError, load_predictor
 from impactnet.models.scenes import Scene
+from impactnet.training.bench.methods import learned_bundle
 from impactnet.training.evaluate import metrics as em
 from impactnet.training.evaluate.data import (
     INPUTS,
@@ -233,7 +236,8 @@ def evaluate(scene: Scene, bundle_path, config: EvaluateConfig, log=_log) -> dic
     if bundle_scene.get("name") != scene.name:
         raise BundleError(f"bundle {bundle_path} was trained for scene "
                           f"{bundle_scene.get('name')!r}, not {scene.name!r}")
-    predictors, missing = load_predictors(bundle, config.predictors)
+    learned, _ = learned_bundle(bundle_path)  # the models themselves, decisions lifted
+    predictors, missing = load_predictors(learned, config.predictors)
     datagen = datagen_config(bundle.manifest)
     tolerance = (scene.accuracy.normal_deg, 100.0 * scene.accuracy.point_fraction)
     per_pair, seconds = [], dict.fromkeys(predictors, 0.0)
