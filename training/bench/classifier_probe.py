@@ -129,11 +129,46 @@ def set_figures(prob, labels, rows, unknown) -> dict:
     return out
 
 
-def probe(data: dict, pair: str, hidden: int, epochs: int, seed: int) -> dict:
-    """The ``global`` and per-corner ``local`` figures (module docstring) of one pair."""
+def _corner_inputs(data: dict, pair: str, corner: str):
+    """(features (n, 9), part-pair keys (c,), their rows (c,)) of one corner's classifier."""
     scene = load_scene("quay_crane_detail")
     a, b = pair.split("/")
     parts_a, parts_b = scene.body(a).parts, scene.body(b).parts
+    b_group = B_GROUPS[scene.body(b).spec["generator"]]
+    n = len(data["push"])
+    pose = np.repeat(np.arange(n), np.diff(data["contact_offsets"]))
+    part_a, part_b = data["contact_part_a"].astype(int), data["contact_part_b"].astype(int)
+    groups_a = np.array([parts_a[i].name.split("/")[0] for i in part_a])
+    groups_b = np.array([parts_b[j].name.split("/")[0] for j in part_b])
+    mine = (groups_a == f"casting_top_{corner}") | (groups_b == f"{b_group}_{corner}")
+    rotation = quaternion_to_matrix(data["quaternion_b"])
+    offset = (np.einsum("nij,j->ni", rotation, _centre(parts_b, f"{b_group}_{corner}"))
+              - _centre(parts_a, f"casting_top_{corner}"))
+    return (_features(data["position_b"], rotation, offset), (part_a * 4096 + part_b)[mine],
+            pose[mine])
+
+
+def learning_curve(data: dict, pair: str, sizes, hidden: int, seed: int,
+                   corner: str = "fl") -> list[dict]:
+    """Corner ``corner``'s classifier trained on the first ``size`` training rows, for each
+    size, on the same held-out rows; epochs scaled so that every run takes as many steps."""
+    n = len(data["push"])
+    x, keys, pose = _corner_inputs(data, pair, corner)
+    order = np.random.default_rng(seed).permutation(n)
+    held = order[int(SPLIT[1] * n):]
+    out = []
+    for size in sizes:
+        train = order[:size]
+        vocab, labels, unknown = label_matrix(keys, pose, n, train)
+        epochs = max(60, round(60 * SPLIT[0] * n / size))
+        prob = train_classifier(x, labels, train, hidden, epochs, seed)
+        out.append({"train_rows": int(size), "labels": len(vocab)}
+                   | set_figures(prob, labels, held, unknown))
+    return out
+
+
+def probe(data: dict, pair: str, hidden: int, epochs: int, seed: int) -> dict:
+    """The ``global`` and per-corner ``local`` figures (module docstring) of one pair."""
     n = len(data["push"])
     pose = np.repeat(np.arange(n), np.diff(data["contact_offsets"]))
     part_a, part_b = data["contact_part_a"].astype(int), data["contact_part_b"].astype(int)
@@ -146,16 +181,10 @@ def probe(data: dict, pair: str, hidden: int, epochs: int, seed: int) -> dict:
                             epochs, seed)
     figures = {"rows": n, "global": {"labels": len(vocab)} | set_figures(prob, labels, held,
                                                                          unknown)}
-    b_group = B_GROUPS[scene.body(b).spec["generator"]]
-    groups_a = np.array([parts_a[i].name.split("/")[0] for i in part_a])
-    groups_b = np.array([parts_b[j].name.split("/")[0] for j in part_b])
     for corner in CORNERS:
-        mine = (groups_a == f"casting_top_{corner}") | (groups_b == f"{b_group}_{corner}")
-        vocab, labels, unknown = label_matrix(keys[mine], pose[mine], n, train)
-        offset = (np.einsum("nij,j->ni", rotation, _centre(parts_b, f"{b_group}_{corner}"))
-                  - _centre(parts_a, f"casting_top_{corner}"))
-        prob = train_classifier(_features(data["position_b"], rotation, offset), labels, train,
-                                hidden, epochs, seed)
+        x, corner_keys, corner_pose = _corner_inputs(data, pair, corner)
+        vocab, labels, unknown = label_matrix(corner_keys, corner_pose, n, train)
+        prob = train_classifier(x, labels, train, hidden, epochs, seed)
         figures[f"local_{corner}"] = {"labels": len(vocab)} | set_figures(prob, labels, held,
                                                                           unknown)
     return figures
@@ -273,12 +302,24 @@ def main(argv=None) -> int:
     parser.add_argument("--hidden", type=int, default=128, help="width of the hidden layers")
     parser.add_argument("--epochs", type=int, default=60, help="passes over the training rows")
     parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--curve", action="store_true",
+                        help="also the learning curve of corner fl's classifier")
     parser.add_argument("--experts", type=int, default=0,
                         help="also regress the contacts of this many most frequent part pairs")
     args = parser.parse_args(argv)
     start = time.perf_counter()
     data = labelled_rows(args.pair, args.rows, args.seed, args.data)
     print(report(probe(data, args.pair, args.hidden, args.epochs, args.seed)))
+    if args.curve:
+        n = len(data["push"])
+        sizes = [s for s in (2500, 5000, 10000, 20000, 40000, 80000) if s < SPLIT[0] * n]
+        sizes.append(int(SPLIT[0] * n))
+        print("\n| training rows | exact set | margin 0.02: fallback / exact answered |")
+        print("|---|---|---|")
+        for f in learning_curve(data, args.pair, sizes, args.hidden, args.seed):
+            m = f["margins"][MARGINS[0]]
+            print(f"| {f['train_rows']:,} | {f['exact_set']:.1%} | "
+                  f"{m['fallback']:.1%} / {m['exact_answered']:.2%} |")
     if args.experts:
         print("\n" + expert_report(expert_figures(data, args.pair, args.experts, 64, 150,
                                                   args.seed)))

@@ -50,3 +50,12 @@ def test_expert_figures_are_error_ratios_of_the_most_frequent_part_pairs(stackin
             assert all(np.isfinite(figures[k]) and figures[k] >= 0.0
                        for k in ("depth", "normal", "point"))
     assert "| largest region |" in cp.expert_report(entries)
+
+
+def test_the_learning_curve_trains_on_growing_prefixes_and_scores_the_same_rows(stacking_rows):
+    curve = cp.learning_curve(stacking_rows, "container40/container40", [30, 100], hidden=8,
+                              seed=0)
+    assert [f["train_rows"] for f in curve] == [30, 100]
+    assert curve[0]["labels"] <= curve[1]["labels"]  # more rows see more part pairs
+    for f in curve:
+        assert 0.0 <= f["exact_set"] <= 1.0 and set(f["margins"]) == set(cp.MARGINS)
