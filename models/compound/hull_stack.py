@@ -149,18 +149,23 @@ def _build(hulls: tuple[Hull, ...]) -> HullStack:
 _CACHE: dict[tuple[int, ...], HullStack] = {}
 
 
+def _cached(cache: dict, hulls: tuple, build):
+    """``build(hulls)``, cached in ``cache`` by the hulls' identities; the entry holds the hulls
+    (``.hulls``), so an identity is never reused while its entry lives."""
+    key = tuple(id(h) for h in hulls)
+    found = cache.get(key)
+    if found is not None and all(a is b for a, b in zip(found.hulls, hulls)):
+        return found
+    found = build(hulls)
+    if len(cache) >= CACHED_STACKS:
+        cache.pop(next(iter(cache)))
+    cache[key] = found
+    return found
+
+
 def stack_hulls(hulls) -> HullStack:
     """The (cached) :class:`HullStack` of a sequence of hulls, in order."""
-    hulls = tuple(hulls)
-    key = tuple(id(h) for h in hulls)
-    stack = _CACHE.get(key)
-    if stack is not None and all(a is b for a, b in zip(stack.hulls, hulls)):
-        return stack
-    stack = _build(hulls)
-    if len(_CACHE) >= CACHED_STACKS:
-        _CACHE.pop(next(iter(_CACHE)))
-    _CACHE[key] = stack
-    return stack
+    return _cached(_CACHE, tuple(hulls), _build)
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,11 +189,10 @@ _CLASSES: dict[tuple[int, ...], SizeClasses] = {}
 
 def size_classes(hulls) -> SizeClasses:
     """The (cached) :class:`SizeClasses` of a body's hulls (in order)."""
-    hulls = tuple(hulls)
-    key = tuple(id(h) for h in hulls)
-    found = _CLASSES.get(key)
-    if found is not None and all(a is b for a, b in zip(found.hulls, hulls)):
-        return found
+    return _cached(_CLASSES, tuple(hulls), _classes)
+
+
+def _classes(hulls: tuple) -> SizeClasses:
     sizes = np.array([_size_class(h) for h in hulls])
     levels = np.unique(sizes)
     klass = np.searchsorted(levels, sizes)
@@ -198,8 +202,4 @@ def size_classes(hulls) -> SizeClasses:
         members = np.flatnonzero(klass == k)
         slot[members] = np.arange(len(members))
         stacks.append(stack_hulls(hulls[i] for i in members))
-    found = SizeClasses(hulls, tuple(stacks), klass, slot)
-    if len(_CLASSES) >= CACHED_STACKS:
-        _CLASSES.pop(next(iter(_CLASSES)))
-    _CLASSES[key] = found
-    return found
+    return SizeClasses(hulls, tuple(stacks), klass, slot)
