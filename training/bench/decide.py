@@ -50,7 +50,9 @@ class DecideConfig:
 QUICK = DecideConfig(poses_per_pair=2_000, single_calls=100, warmup=10, repeats=2)
 
 
-def _decision(row: dict, accuracy) -> str:
+def serve_decision(row: dict, accuracy) -> str:
+    """``"learned"`` or ``"exact-only"`` for a pair's figures (:func:`measure_pair`) under the
+    scene's ``accuracy`` (module docstring's rule)."""
     fast = min(row["speedup_n1"], row["speedup_batch"]) >= SPEEDUP_REQUIRED
     exact_enough = (row["normal_p99_deg"] is not None
                     and row["normal_p99_deg"] <= accuracy.normal_deg
@@ -108,7 +110,7 @@ def decide(config: DecideConfig) -> dict:
         rows = np.flatnonzero(poses.pair == k)
         row = {"pair": pair.key} | measure_pair(exact, auto, poses.args(rows),
                                                 poses.scale[rows], config)
-        row["decision"] = _decision(row, scene.accuracy)
+        row["decision"] = serve_decision(row, scene.accuracy)
         row["recorded"] = recorded.get(pair.key)
         pairs.append(row)
     return {"scene": scene.name, "config": asdict(config), "machine": machine_info(),

@@ -37,7 +37,7 @@ def record_decisions(scene: Scene, manifest: dict, tensors: dict, quick: bool,
     for k, pair in enumerate(scene.pairs):
         rows = np.flatnonzero(poses.pair == k)
         figures = dc.measure_pair(exact, auto, poses.args(rows), poses.scale[rows], config)
-        serve = dc._decision(figures, scene.accuracy)
+        serve = dc.serve_decision(figures, scene.accuracy)
         manifest["pairs"][pair.key]["decision"] = {
             "serve": serve,
             "rule": f"learned only if auto is >= {dc.SPEEDUP_REQUIRED:g}x faster than the "

@@ -17,7 +17,7 @@ LEARNED_ROW = {"speedup_n1": 2.5, "speedup_batch": 3.0, "normal_p99_deg": 0.5,
                                     {"missed": 1}, {"normal_p99_deg": None}])
 def test_a_pair_is_learned_only_when_twice_as_fast_at_both_sizes_and_within_tolerance(change):
     expected = "learned" if not change else "exact-only"
-    assert dc._decision(LEARNED_ROW | change, ACCURACY) == expected
+    assert dc.serve_decision(LEARNED_ROW | change, ACCURACY) == expected
 
 
 def test_a_quick_run_reports_every_pair_with_consistent_figures(tmp_path):
@@ -31,7 +31,7 @@ def test_a_quick_run_reports_every_pair_with_consistent_figures(tmp_path):
         assert 0.0 <= row["fallback_share"] <= 1.0
         assert sum(row["answered_by"].values()) == 300
         assert row["speedup_n1"] == pytest.approx(row["exact_n1_us"] / row["auto_n1_us"])
-        assert row["decision"] == dc._decision(row, load_scene("quay_crane").accuracy)
+        assert row["decision"] == dc.serve_decision(row, load_scene("quay_crane").accuracy)
     assert (tmp_path / "decide.md").read_text().count("**") == 2 * len(result["pairs"])
     assert (tmp_path / "decide.json").exists()
 
