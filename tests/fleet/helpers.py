@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import orjson
 
+from impactnet.service.bench_http import poses
 from impactnet.service.fleet import local
 from tests.apt_packages import Unavailable, apt_install  # noqa: F401 (the fixtures' skip)
 
@@ -57,16 +58,9 @@ def nginx_test(binary: str, config_text: str, folder: str) -> subprocess.Complet
 
 
 def npz_batch(n: int, seed: int = 0) -> bytes:
-    """An npz batch body of ``n`` cube pairs around contact (mode exact)."""
-    rng = np.random.default_rng(seed)
-    q = rng.normal(size=(2, n, 4))
-    q /= np.linalg.norm(q, axis=2, keepdims=True)
-    direction = rng.normal(size=(n, 3))
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    """An npz batch body of ``n`` cube pairs around contact (mode exact): bench_http's poses."""
     buffer = io.BytesIO()
-    np.savez(buffer, a_size=np.full((n, 3), 2.0), a_position=np.zeros((n, 3)),
-             a_quaternion=q[0], b_size=np.full((n, 3), 2.0),
-             b_position=direction * rng.uniform(1.9, 3.0, size=(n, 1)), b_quaternion=q[1])
+    np.savez(buffer, **poses(n, seed))
     return buffer.getvalue()
 
 

@@ -12,9 +12,8 @@ report says "not available: <reason>": no figure is ever made up for it.
 """
 from __future__ import annotations
 
-import copy
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -98,9 +97,13 @@ def learned_methods(names=LEARNED, bundle=None) -> list[Method]:
     from impactnet.models.predictors import DEFAULT_BUNDLE
 
     methods = []
+    try:
+        learned, _ = learned_bundle(DEFAULT_BUNDLE if bundle is None else bundle)
+    except Exception as exc:  # noqa: BLE001 - reported per method, not raised
+        return [Method(name, "learned", unavailable=f"{type(exc).__name__}: {exc}")
+                for name in names]
     for name in names:
         try:
-            learned, _ = learned_bundle(DEFAULT_BUNDLE if bundle is None else bundle)
             predictor = load_predictor(name, learned)
         except Exception as exc:  # noqa: BLE001 - any load failure is reported, not raised
             methods.append(Method(name, "learned", unavailable=f"{type(exc).__name__}: {exc}"))
@@ -112,21 +115,26 @@ def learned_methods(names=LEARNED, bundle=None) -> list[Method]:
 def learned_bundle(bundle) -> tuple:
     """(the bundle with its recorded decisions lifted, {pair: the recorded ``serve``}).
 
-    ``bundle``: a bundle folder or a store (its ``current``). What it returns serves every pair
-    by its learned models, so that what is timed and scored is the learned path itself, never
-    the exact solver that an exact-only pair is served by.
+    ``bundle``: a bundle folder or a store (its ``current``), read with its checksums verified
+    (:func:`lift_decisions`).
     """
-    import safetensors.numpy
-
-    from impactnet.models.bundle.format import WEIGHTS, bundle_in_memory, read_bundle
+    from impactnet.models.bundle.format import read_bundle
     from impactnet.models.bundle.store import resolve_bundle
 
-    folder = resolve_bundle(bundle)
-    manifest = copy.deepcopy(read_bundle(folder).manifest)  # checksums verified
-    recorded = {key: (entry.pop("decision", None) or {}).get("serve")
-                for key, entry in manifest["pairs"].items()}
-    tensors = safetensors.numpy.load_file(folder / WEIGHTS)
-    return bundle_in_memory(manifest, tensors), recorded
+    served = read_bundle(resolve_bundle(bundle))
+    recorded = {key: pair.serve if pair.decision is not None else None
+                for key, pair in served.pairs.items()}
+    return lift_decisions(served), recorded
+
+
+def lift_decisions(served):
+    """``served`` (a Bundle) serving every pair by its learned models: what is timed and scored
+    is then the learned path itself, never the exact solver that an exact-only pair is served
+    by."""
+    from impactnet.models.bundle.format import SERVE_LEARNED
+
+    return replace(served, pairs={key: replace(pair, serve=SERVE_LEARNED, decision=None)
+                                  for key, pair in served.pairs.items()})
 
 
 def _loop(one_pair: Callable, args, detail: bool, extras: tuple[str, ...] = ()) -> Answer:

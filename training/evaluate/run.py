@@ -36,7 +36,7 @@ from impactnet.models.bundle.store import resolve_bundle
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.predictors import PREDICTOR_NAMES, BundleError, load_predictor
 from impactnet.models.scenes import Scene
-from impactnet.training.bench.methods import learned_bundle
+from impactnet.training.bench.methods import lift_decisions
 from impactnet.training.evaluate import metrics as em
 from impactnet.training.evaluate.data import (
     INPUTS,
@@ -236,8 +236,8 @@ def evaluate(scene: Scene, bundle_path, config: EvaluateConfig, log=_log) -> dic
     if bundle_scene.get("name") != scene.name:
         raise BundleError(f"bundle {bundle_path} was trained for scene "
                           f"{bundle_scene.get('name')!r}, not {scene.name!r}")
-    learned, _ = learned_bundle(bundle_path)  # the models themselves, decisions lifted
-    predictors, missing = load_predictors(learned, config.predictors)
+    # the models themselves, decisions lifted
+    predictors, missing = load_predictors(lift_decisions(bundle), config.predictors)
     datagen = datagen_config(bundle.manifest)
     tolerance = (scene.accuracy.normal_deg, 100.0 * scene.accuracy.point_fraction)
     per_pair, seconds = [], dict.fromkeys(predictors, 0.0)
