@@ -5,8 +5,15 @@ bodies").
 Rows are grouped by their pair of bodies (object names, or raw box sizes) and each group is
 one vectorised call of :func:`impactnet.models.compound.compound_answer`. The answer is the
 body-level summary per row plus the ragged list of part contacts, pose-major, with
-``offsets`` (n + 1,) delimiting each row's contacts. Compound pairs are exact-only: every mode
-answers with the oracle and says so in ``predictor``.
+``offsets`` (n + 1,) delimiting each row's contacts.
+
+Modes (issue #21): a pair that the bundle serves learned (``chains``) is answered in mode
+``auto`` by its chain (classifier, experts, the oracle for unsure rows) and in mode
+``committee`` by its chain without the oracle; ``exact`` and ``single`` (there is no single
+MLP of a compound pair), and every mode for a pair recorded exact-only or without models, are
+answered by the oracle. ``predictor`` names, per row, ``oracle``, ``exact-part`` or
+``learned``. A request that names the bodies in the other order than the scene's pair is
+answered by the oracle.
 """
 from __future__ import annotations
 
@@ -14,7 +21,7 @@ import io
 
 import numpy as np
 
-from impactnet.models.compound import compound_answer
+from impactnet.models.compound import CompoundAnswer, compound_answer
 from impactnet.models.contacts import CONTACT_TYPES
 from impactnet.service.api.errors import ServiceError
 from impactnet.service.predictors import PairInputs
@@ -42,8 +49,31 @@ def _groups(pairs: PairInputs, n: int):
                      return_inverse=True)
 
 
+def _chain_for(key, scene: SceneView, chains: dict, mode: str):
+    """The chain that answers a group (its object indices in ``key``) in ``mode``, or None."""
+    if mode not in ("auto", "committee") or not chains:
+        return None
+    names = scene.object_names + scene.compound_names
+    a, b = int(key[0]), int(key[1])
+    if min(a, b) < 0:
+        return None
+    return chains.get(f"{names[a]}/{names[b]}")
+
+
+def _answer(pairs_of_group, chain, mode: str):
+    """(CompoundAnswer, predictor (k,)) of one group: its chain's or the oracle's."""
+    parts_a, take_a, q_a, parts_b, take_b, q_b = pairs_of_group
+    if chain is None:
+        answer = compound_answer(parts_a, take_a, q_a, parts_b, take_b, q_b)
+        return answer, np.full(len(answer), ORACLE)
+    got = chain.answer(take_a, q_a, take_b, q_b, fallback=mode == "auto")
+    return (CompoundAnswer(got.parts, got.summary, tuple(p.name for p in parts_a),
+                           tuple(p.name for p in parts_b)), got.predictor)
+
+
 def solve_compound(pairs: PairInputs, scene: SceneView, max_per_pose: int,
-                   max_per_batch: int) -> dict:
+                   max_per_batch: int, chains: dict | None = None,
+                   mode: str = "exact") -> dict:
     """The summary columns (n rows) and the ragged part contacts of every row.
 
     Raises
@@ -55,6 +85,7 @@ def solve_compound(pairs: PairInputs, scene: SceneView, max_per_pose: int,
     keys, inverse = _groups(pairs, n)
     inverse = inverse.reshape(-1)
     out = _empty(n)
+    out["predictor"] = np.full(n, ORACLE, dtype="<U10")
     pieces, total = [], 0
     for g, key in enumerate(keys):
         rows = np.flatnonzero(inverse == g)
@@ -62,12 +93,12 @@ def solve_compound(pairs: PairInputs, scene: SceneView, max_per_pose: int,
         parts_b = scene.parts_of(int(key[1]), key[5:8])
         take = [np.broadcast_to(c, (n,) + c.shape[1:])[rows] for c in
                 (pairs.position_a, pairs.quaternion_a, pairs.position_b, pairs.quaternion_b)]
-        answer = compound_answer(parts_a, take[0], take[1], parts_b, take[2], take[3])
+        answer, out["predictor"][rows] = _answer(
+            (parts_a, take[0], take[1], parts_b, take[2], take[3]),
+            _chain_for(key, scene, chains or {}, mode), mode)
         total += int(answer.parts.offsets[-1])
         pieces.append(_fill(out, answer, rows, total, max_per_pose, max_per_batch))
-    out |= _ragged(pieces, n)
-    out["predictor"] = np.full(n, ORACLE)
-    return out
+    return out | _ragged(pieces, n)
 
 
 def _fill(out: dict, answer, rows, total: int, max_per_pose: int, max_per_batch: int) -> dict:
@@ -145,7 +176,8 @@ def row_json(arrays: dict, i: int) -> dict:
                 for r in rows]
     return {"colliding": bool(arrays["colliding"][i]), "point": arrays["point"][i].tolist(),
             "normal": arrays["normal"][i].tolist(), "depth": float(arrays["depth"][i]),
-            "cluster_size": int(arrays["cluster_size"][i]), "predictor": ORACLE,
+            "cluster_size": int(arrays["cluster_size"][i]),
+            "predictor": str(arrays["predictor"][i]),
             "contacts": contacts}
 
 
@@ -167,7 +199,7 @@ def batch_npz(arrays: dict, mode: str, model_version: str) -> bytes:
     """The batch answer as an npz archive: the same columns, contacts as ``contact_*``."""
     buffer = io.BytesIO()
     members = {name: np.asarray(value) for name, value in arrays.items()}
-    members["predictor"] = members["predictor"].astype("<U8")
+    members["predictor"] = members["predictor"].astype("<U10")
     for name in ("contact_part_a", "contact_part_b", "contact_type"):
         members[name] = members[name].astype(str)
     np.savez(buffer, mode=np.asarray(mode), model_version=np.asarray(model_version), **members)

@@ -74,6 +74,8 @@ class ServingState:
     model_version: str  # the bundle's version, or the exact solver's; in every response
     default_mode: str = "exact"  # mode of requests that name none; always one it serves
     bundle: dict | None = None  # description of the learned bundle (GET /v1/models) or None
+    compound: dict = field(default_factory=dict)  # "a/b" -> CompoundChain of the compound
+    # pairs the bundle serves learned (issue #21); the others are answered by the oracle
     loaded_at: float = field(default_factory=time.time)  # UNIX seconds
 
     def predictor(self, mode: str):

@@ -36,6 +36,11 @@ from pathlib import Path
 from impactnet.models.bundle.format import Bundle, BundleError, read_bundle
 from impactnet.models.learned.pair_dispatch import UNSUPPORTED, PairTable
 from impactnet.models.predictors import DEFAULT_BUNDLE, load_predictor
+from impactnet.service.compound_models import (
+    compound_chains,
+    compound_smoke,
+    describe_compound,
+)
 from impactnet.service.limits.bundle_guard import check_bundle_files
 from impactnet.service.predictors import (
     LEARNED_MODES,
@@ -156,6 +161,7 @@ def describe(bundle: Bundle, path: Path, scene: SceneView) -> dict:
         hit = None not in sizes and table.match_one(*sizes) != UNSUPPORTED
         (covered if hit else missing).append(f"{a}/{b}")
     return {
+        "compound_pairs": describe_compound(bundle),
         "path": str(path.resolve()),
         "version": bundle.version,
         "scene": manifest.get("scene"),
@@ -206,9 +212,12 @@ def state_for(scene: SceneView, path: Path | None, settings: Settings,
     except SmokeTestFailed as exc:
         raise LoadError("smoke", f"bundle {str(path)!r} failed the smoke test: {exc}",
                         path) from exc
+    chains = compound_chains(bundle, scene)
+    report["compound_pairs"] = compound_smoke(chains, settings.smoke_poses)
     info = describe(bundle, path, scene) | {"store_version": store_version, "smoke": report}
     return ServingState(scene=scene, predictors=predictors, unavailable=unavailable,
-                        model_version=bundle.version, default_mode=mode, bundle=info)
+                        model_version=bundle.version, default_mode=mode, bundle=info,
+                        compound=chains)
 
 
 def build_state(settings: Settings) -> ServingState:

@@ -85,6 +85,7 @@ class Bundle:
     mlps: dict[str, MLP]  # every MLP the manifest declares
     pairs: dict[str, PairModels]  # "a/b" -> models
     path: Path | None = None  # the folder it was read from, if any
+    compound: dict = field(default_factory=dict)  # "a/b" -> CompoundPairModels (issue #21)
 
     @property
     def version(self) -> str:
@@ -195,8 +196,9 @@ def _committee(entry: dict, mlps: dict[str, MLP], where: str):
     return cn.REGION_LABELLER, tuple(regions), out
 
 
-def _assemble(manifest, tensors: dict[str, np.ndarray]) -> tuple[dict, dict]:
-    """(mlps, pairs) of a manifest and its tensors; BundleError on any inconsistency."""
+def _assemble(manifest, tensors: dict[str, np.ndarray]) -> tuple[dict, dict, dict]:
+    """(mlps, pairs, compound pairs) of a manifest and its tensors; BundleError on any
+    inconsistency."""
     if not isinstance(manifest, dict):
         raise BundleError("the manifest must be a JSON object")
     if manifest.get("format") != FORMAT or manifest.get("format_version") != FORMAT_VERSION:
@@ -204,8 +206,11 @@ def _assemble(manifest, tensors: dict[str, np.ndarray]) -> tuple[dict, dict]:
                           f"{manifest.get('format')!r}, version "
                           f"{manifest.get('format_version')!r})")
     specs, pairs = manifest.get("mlps"), manifest.get("pairs")
-    if not isinstance(specs, dict) or not isinstance(pairs, dict) or not pairs:
-        raise BundleError("the manifest needs 'mlps' and a non-empty 'pairs' object")
+    compound = manifest.get("compound_pairs", {})
+    if (not isinstance(specs, dict) or not isinstance(pairs, dict)
+            or not isinstance(compound, dict) or not (pairs or compound)):
+        raise BundleError("the manifest needs 'mlps' and a non-empty 'pairs' or "
+                          "'compound_pairs' object")
     for key, value in tensors.items():
         if value.dtype != np.float32:
             raise BundleError(f"tensor {key!r} is {value.dtype}, the contract says float32")
@@ -220,7 +225,20 @@ def _assemble(manifest, tensors: dict[str, np.ndarray]) -> tuple[dict, dict]:
     extra = sorted(set(tensors) - owned)
     if extra:
         raise BundleError(f"tensors of no declared MLP: {extra[:5]}")
-    return mlps, {key: _pair_models(key, entry, mlps) for key, entry in pairs.items()}
+    return (mlps, {key: _pair_models(key, entry, mlps) for key, entry in pairs.items()},
+            {key: _compound_models(key, entry, mlps) for key, entry in compound.items()})
+
+
+def _compound_models(key: str, entry, mlps: dict):
+    """A verified compound pair entry (:mod:`impactnet.models.bundle.compound_format`)."""
+    from impactnet.models.bundle.compound_format import compound_pair_models
+
+    try:
+        return compound_pair_models(key, entry, mlps, BundleError)
+    except BundleError:
+        raise
+    except (KeyError, TypeError, ValueError) as exc:
+        raise BundleError(f"compound_pairs[{key!r}]: {exc}") from None
 
 
 def bundle_in_memory(manifest: dict, tensors: dict[str, np.ndarray]) -> Bundle:
@@ -230,8 +248,8 @@ def bundle_in_memory(manifest: dict, tensors: dict[str, np.ndarray]) -> Bundle:
     manifest.setdefault("format", FORMAT)
     manifest.setdefault("format_version", FORMAT_VERSION)
     arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in tensors.items()}
-    mlps, pairs = _assemble(manifest, arrays)
-    return Bundle(manifest, mlps, pairs)
+    mlps, pairs, compound = _assemble(manifest, arrays)
+    return Bundle(manifest, mlps, pairs, compound=compound)
 
 
 def _parse_json(data: bytes):
@@ -270,8 +288,8 @@ def read_bundle(path) -> Bundle:
         tensors = safetensors.numpy.load(contents[WEIGHTS])
     except Exception as exc:  # the Rust SafetensorError derives from Exception only
         raise BundleError(f"{folder / WEIGHTS}: not a safetensors file: {exc}") from None
-    mlps, pairs = _assemble(manifest, tensors)
-    return Bundle(manifest, mlps, pairs, folder)
+    mlps, pairs, compound = _assemble(manifest, tensors)
+    return Bundle(manifest, mlps, pairs, folder, compound)
 
 
 def write_file(path: Path, data: bytes) -> None:

@@ -102,7 +102,7 @@ def compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
     q_a, q_b = np.broadcast_to(q_a, (n, 4)), np.broadcast_to(q_b, (n, 4))
     rot_a, rot_b = np.broadcast_to(rot_a, (n, 3, 3)), np.broadcast_to(rot_b, (n, 3, 3))
     if n > ORACLE_CHUNK:  # blocks of poses: the working set stays in the CPU caches
-        return _joined([_solve((pos_a[s:s + ORACLE_CHUNK], q_a[s:s + ORACLE_CHUNK],
+        return joined([_solve((pos_a[s:s + ORACLE_CHUNK], q_a[s:s + ORACLE_CHUNK],
                                 rot_a[s:s + ORACLE_CHUNK], table_a),
                                (pos_b[s:s + ORACLE_CHUNK], q_b[s:s + ORACLE_CHUNK],
                                 rot_b[s:s + ORACLE_CHUNK], table_b))
@@ -152,8 +152,47 @@ def _solve(body_a, body_b) -> PartContacts:
     rotations, table))."""
     pos_a, _, rot_a, table_a = body_a
     pos_b, _, rot_b, table_b = body_b
-    n = len(pos_a)
     pose, i, j = broadphase(table_a, table_b, pos_b - pos_a, rot_a, rot_b)
+    return _contacts_of(pose, i, j, body_a, body_b)
+
+
+def part_pair_contacts(parts_a, position_a, quaternion_a, parts_b, position_b, quaternion_b,
+                       pose, part_a, part_b) -> PartContacts:
+    """The oracle's narrowphase and filter on chosen part pairs only, no broadphase: the exact
+    part-pair expert of the learned path (issue #21), which names the candidates.
+
+    Parameters
+    ----------
+    parts_a, parts_b, position_a, quaternion_a, position_b, quaternion_b
+        As :func:`compound_contacts` (n poses).
+    pose, part_a, part_b : array_like, shape (k,)
+        The candidate part pairs: pose index, A's part, B's part; sorted by pose.
+
+    Returns
+    -------
+    PartContacts
+        The candidates that touch (after the filter of covered surfaces), pose-major, with
+        ``offsets`` over the n poses: the oracle's answer whenever the candidates include every
+        touching part pair.
+    """
+    table_a, table_b = body_table(parts_a), body_table(parts_b)
+    pos_a, q_a, rot_a = _poses(position_a, quaternion_a)
+    pos_b, q_b, rot_b = _poses(position_b, quaternion_b)
+    n = max(len(pos_a), len(pos_b))
+    body_a = (np.broadcast_to(pos_a, (n, 3)), np.broadcast_to(q_a, (n, 4)),
+              np.broadcast_to(rot_a, (n, 3, 3)), table_a)
+    body_b = (np.broadcast_to(pos_b, (n, 3)), np.broadcast_to(q_b, (n, 4)),
+              np.broadcast_to(rot_b, (n, 3, 3)), table_b)
+    pose = np.asarray(pose, np.int64)
+    if len(pose) > 1 and (np.diff(pose) < 0).any():
+        raise ValueError("part_pair_contacts: candidates must be sorted by pose")
+    return _contacts_of(pose, np.asarray(part_a, np.int64), np.asarray(part_b, np.int64),
+                        body_a, body_b)
+
+
+def _contacts_of(pose, i, j, body_a, body_b) -> PartContacts:
+    """Narrowphase and filter of the part pairs (pose, i, j) (pose-major) of n poses."""
+    n = len(body_a[0])
     found = _narrowphase(pose, i, j, body_a, body_b)
     rows = np.flatnonzero(found.colliding)
     rows = rows[~_hidden(found, rows, pose, i, j, body_a, body_b)]
@@ -164,7 +203,7 @@ def _solve(body_a, body_b) -> PartContacts:
                         j[rows].astype(np.int16), found.take(rows), offsets)
 
 
-def _joined(blocks: list[PartContacts]) -> PartContacts:
+def joined(blocks: list[PartContacts]) -> PartContacts:
     """Blocks of consecutive poses as one PartContacts."""
     shift = np.cumsum([0] + [len(b.offsets) - 1 for b in blocks[:-1]])
     start = np.cumsum([0] + [int(b.offsets[-1]) for b in blocks[:-1]])

@@ -55,6 +55,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-fallback-share", type=float, default=1.0,
                         help="gate: largest share of a pair's test rows that auto may hand to "
                              "the exact solver (default: 1.0, no bound)")
+    parser.add_argument("--rows", type=int, default=None,
+                        help="compound scenes: labelled first-contact rows per pair (default: "
+                             "16000; quick: 1500)")
+    parser.add_argument("--data", default=None,
+                        help="compound scenes: folder of the labelled rows (`impactnet datagen` "
+                             "output; labelled and written there when missing; default: data/)")
     parser.add_argument("--keep", type=int, default=None,
                         help="accepted versions kept in the store, the current one included "
                              "(default: 5)")
@@ -88,7 +94,9 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         scene = load_scene(args.scene)
-        scene.require_box_pairs("impactnet train")  # compound pairs: issue #21
+        if _compound_scene(scene):
+            return _run_compound(scene, args)
+        scene.require_box_pairs("impactnet train")  # a scene mixing both is not supported
         if args.seed < 0:
             raise ValueError(f"--seed must be >= 0, got {args.seed}")
         if args.workers is not None and args.workers < 1:
@@ -112,6 +120,40 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     _print_summary(outcome.manifest, time.perf_counter() - start)
     return _report_outcome(outcome, out)
+
+
+def _compound_scene(scene) -> bool:
+    """Whether every pair of ``scene`` has a compound body (the compound training)."""
+    from impactnet.training.data.compound_dataset import compound_pairs
+
+    return bool(scene.pairs) and len(compound_pairs(scene)) == len(scene.pairs)
+
+
+def _run_compound(scene, args: argparse.Namespace) -> int:
+    """`impactnet train` for a scene of compound pairs (:mod:`impactnet.training.compound`)."""
+    from impactnet.training.compound.scene import ROWS_PER_PAIR, train_compound_scene
+    from impactnet.training.compound.settings import compound_config
+
+    rows = args.rows or (1500 if args.quick else ROWS_PER_PAIR)
+    if args.seed < 0 or rows < 100:
+        print("impactnet train: --seed must be >= 0 and --rows >= 100", file=sys.stderr)
+        return EXIT_USAGE
+    out = args.out or f"models/bundles/{scene.name}"
+    start = time.perf_counter()
+    try:
+        path, manifest = train_compound_scene(
+            scene, out, compound_config(args.seed, args.quick), rows, args.data or "data",
+            log=lambda m: print(f"train: {m}", file=sys.stderr, flush=True))
+    except KeyboardInterrupt:
+        print(f"impactnet train: interrupted; '{out}/current' is unchanged", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    for key, entry in manifest["compound_pairs"].items():
+        decision = entry["decision"]
+        print(f"  {key}: {decision['serve']}"
+              + (f" ({'; '.join(decision['reasons'])})" if decision["reasons"] else ""))
+    print(f"wrote {path} (version {manifest['version']}); {out}/current -> "
+          f"{manifest['version']} in {time.perf_counter() - start:.0f} s")
+    return EXIT_OK
 
 
 def _report_outcome(outcome, out) -> int:

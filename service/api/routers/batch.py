@@ -33,7 +33,6 @@ from impactnet.service.codecs.answer_encode import (
 from impactnet.service.codecs.batch_json import parse_json_batch
 from impactnet.service.codecs.npz import parse_npz
 from impactnet.service.compound_solve import (
-    ORACLE,
     batch_json,
     batch_npz,
     names_compound,
@@ -136,10 +135,12 @@ def _score(body: bytes, binary_in: bool, answer_type: str, query: dict, state: S
     pairs = col.batch_pairs(columns, state.scene.with_compound, options.euler_convention,
                             settings.max_batch_pairs)
     del columns
-    if names_compound(pairs, state.scene):  # exact-only: the oracle answers in every mode
+    if names_compound(pairs, state.scene):  # the oracle, or the pair's learned chain
         arrays = solve_compound(pairs, state.scene, settings.max_part_contacts_per_pose,
-                                settings.max_part_contacts_per_batch)
-        runtime.metrics.record_predictions(mode, {ORACLE: len(pairs)})
+                                settings.max_part_contacts_per_batch, state.compound, mode)
+        names, counts = np.unique(arrays["predictor"], return_counts=True)
+        runtime.metrics.record_predictions(mode, dict(zip(names.tolist(), counts.tolist(),
+                                                          strict=True)))
         if answer_type == col.NPZ:
             return batch_npz(arrays, mode, state.model_version), mode
         return orjson.dumps(batch_json(arrays, mode, state.model_version)), mode

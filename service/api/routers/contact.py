@@ -84,10 +84,11 @@ async def contact(request: Request) -> Response:
                         media_type="application/json",
                         headers={"X-Model-Version": state.model_version})
     pairs = request_pair(body, state.scene.with_compound)
-    if names_compound(pairs, state.scene):  # exact-only: the oracle answers in every mode
+    if names_compound(pairs, state.scene):  # the oracle, or the pair's learned chain
         arrays = solve_compound(pairs, state.scene, runtime.settings.max_part_contacts_per_pose,
-                                runtime.settings.max_part_contacts_per_batch)
-        runtime.metrics.record_predictions(mode, {ORACLE: 1})
+                                runtime.settings.max_part_contacts_per_batch, state.compound,
+                                mode)
+        runtime.metrics.record_predictions(mode, {str(arrays["predictor"][0]): 1})
         answer = row_json(arrays, 0) | {"mode": mode, "model_version": state.model_version}
         return Response(orjson.dumps(answer), media_type="application/json",
                         headers={"X-Model-Version": state.model_version})

@@ -1,0 +1,69 @@
+"""The served classifier of one part group: which of its part pairs touch (issue #21, step 1).
+
+An MLP (:mod:`impactnet.models.learned.mlp`, trained by
+:mod:`impactnet.training.compound.classify`) maps the group's features
+(:func:`impactnet.models.learned.compound.groups.group_features`) to one logit per label, a part
+pair seen touching in training. Probabilities are ``sigmoid(logit / temperature)``, the
+temperature calibrated on validation rows. A label with a probability of at least
+``candidate_min`` (calibrated so that no validation row misses a touching pair) is a candidate,
+which an expert then answers. A row whose features lie outside the box of the training rows
+(widened by :data:`DOMAIN_MARGIN_REL`) is *unsure*: the chain sends it to the oracle.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from impactnet.models.learned.compound.groups import PartGroup, group_features
+from impactnet.models.learned.mlp import MLP
+
+#: The training rows' range of each feature is widened by this share of its width on each
+#: side: a pose a little past the drawn families is still answered, one far past is not.
+DOMAIN_MARGIN_REL = 0.02
+#: Logits are clipped to +-this before the sigmoid (float64 exp stays finite).
+LOGIT_CLIP = 60.0
+
+
+@dataclass(frozen=True)
+class GroupClassifier:
+    """One group's classifier with its calibration."""
+
+    group: PartGroup  # the parts it covers and its feature centres
+    labels: np.ndarray  # (v, 2) int: (A's part, B's part) of each label
+    mlp: MLP | None  # features (9) -> v logits; None when the group has no label
+    temperature: float  # calibrated: p = sigmoid(logit / temperature), > 0
+    candidate_min: float  # a label with p >= this is a candidate, in (0, 1)
+    domain_lo: np.ndarray  # (9,) training rows' feature minimum, widened
+    domain_hi: np.ndarray  # (9,) training rows' feature maximum, widened
+
+    def probabilities(self, position, rotation) -> tuple[np.ndarray, np.ndarray]:
+        """(probabilities (n, v) float64, inside (n,) bool: the row lies in the domain).
+
+        Parameters
+        ----------
+        position : ndarray, shape (n, 3)
+            B's origin in A's frame (m).
+        rotation : ndarray, shape (n, 3, 3)
+            B's orientation in A's frame.
+        """
+        x = group_features(self.group, position, rotation)
+        inside = ((x >= self.domain_lo) & (x <= self.domain_hi)).all(axis=1)
+        if self.mlp is None:
+            return np.zeros((len(x), 0)), inside
+        logits = self.mlp.forward(x.astype(np.float32))
+        return sigmoid_probabilities(logits, self.temperature), inside
+
+
+def sigmoid_probabilities(logits: np.ndarray, temperature: float) -> np.ndarray:
+    """``sigmoid(logits / temperature)``, clipped as served (training's calibration uses it)."""
+    z = np.clip(np.asarray(logits, np.float64) / temperature, -LOGIT_CLIP, LOGIT_CLIP)
+    return 1.0 / (1.0 + np.exp(-z))
+
+
+def widened_domain(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo (9,), hi (9,)) of training features ``x`` (n, 9), widened by
+    :data:`DOMAIN_MARGIN_REL` of each feature's width."""
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    pad = DOMAIN_MARGIN_REL * (hi - lo)
+    return lo - pad, hi + pad
