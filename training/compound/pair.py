@@ -51,7 +51,10 @@ class CompoundTrainConfig:
     classifier: ClassifierConfig = field(default_factory=ClassifierConfig)  # group classifiers
     experts: ExpertConfig = field(default_factory=ExpertConfig)  # region committees
     timing: TimingConfig = field(default_factory=TimingConfig)  # the decision's timings
-    best_case_first: bool = True  # stage 3: no classifier where even the best case loses
+    best_case_first: bool = False  # stage 3: skip the classifier where even the best case
+    # loses (faster; the pair then has no classifier figures)
+    keep_models: bool = False  # keep an exact-only pair's models in the bundle (inspection,
+    # tests; the service still answers it with the oracle)
 
 
 def train_compound_pair(scene, pair, data: dict, config: CompoundTrainConfig,
@@ -115,7 +118,7 @@ def train_compound_pair(scene, pair, data: dict, config: CompoundTrainConfig,
                          "figures": figures | speed,
                          "seconds": round(time.perf_counter() - start, 1)}
     log(f"{pair.key}: {serve} ({'; '.join(reasons) or 'every goal met'})")
-    if serve == "exact-only":  # nothing to serve: the bundle keeps the figures, not the models
+    if serve == "exact-only" and not config.keep_models:  # nothing to serve: the bundle keeps the figures, not the models
         entry["groups"] = [{k: v for k, v in g.items() if k == "figures"} | {"name": g["name"]}
                            for g in group_entries]
         return entry, {}, {}
