@@ -52,3 +52,19 @@ def guide_manifest(learned: bool = True) -> tuple[dict, dict]:
     return ({"version": "guide-test", "scene": {"name": scene.name, "hash": scene.hash()},
              "mlps": dict(specs), "pairs": {}, "compound_pairs": {GUIDE_PAIR: entry}},
             dict(tensors))
+
+
+def guide_scene(folder, name: str = "guide_only"):
+    """``quay_crane_detail`` with its cell guide pair only, as a TOML file in ``folder`` (the
+    cheapest compound pair to label: for tests that label a scene's every pair)."""
+    from pathlib import Path
+
+    from impactnet.models.scenes import scene_path
+
+    head, *pairs = scene_path("quay_crane_detail").read_text().split("[[pairs]]")
+    keep = [p for p in pairs if 'a = "cell_guide"' in p]
+    assert len(keep) == 1
+    head = head.replace('name = "quay_crane_detail"', f'name = "{name}"')
+    path = Path(folder) / f"{name}.toml"
+    path.write_text(head + "[[pairs]]" + keep[0])
+    return path

@@ -85,6 +85,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     compound.add_argument("--plot", metavar="PNG", help="write the plot of cost against detail "
                           "there (default: compound_cost_vs_detail.png in --out)")
     compound.add_argument("--seed", type=int, default=1, help="pose seed (default 1)")
+    moe = sub.add_parser(
+        "moe", help="compound pairs: the learned path (auto) against the compound oracle",
+        description="Per compound pair of the scene: auto (classifiers, experts, the oracle "
+                    "for unsure rows) scored on held-out rows and timed against the compound "
+                    "oracle at N = 1 and N = 1e5, the decision rule applied, and the cost "
+                    "against the twistlock heads' detail (a few minutes; --quick: 2,000).")
+    moe.add_argument("--quick", action="store_true", help="few poses and calls (smoke run)")
+    moe.add_argument("--scene", default="quay_crane_detail", help="scene name or TOML path")
+    moe.add_argument("--bundle", default=None, help="bundle folder (default: the shipped)")
+    moe.add_argument("--data", default="data", help="training data folder (held-out rows)")
+    moe.add_argument("--out", metavar="DIR", help="write moe.md, moe.json and the plot there")
+    moe.add_argument("--plot", metavar="PNG", help="the plot's path (default: in --out)")
     decide = sub.add_parser(
         "decide", help="per pair of a box scene: exact-only or learned, by issue #21's rule",
         description="Per pair of a box scene: the exact solver and the bundle's auto mode "
@@ -116,6 +128,17 @@ def run(args: argparse.Namespace) -> int:
             f" --seed {args.seed}" if args.seed != 1 else "")
         return run_compound(quick=args.quick, out=args.out, seed=args.seed, command=command,
                             plot_path=args.plot)
+    if getattr(args, "bench_command", None) == "moe":
+        from dataclasses import replace
+
+        from impactnet.training.bench.moe import QUICK as MOE_QUICK
+        from impactnet.training.bench.moe import MoeConfig
+        from impactnet.training.bench.moe import run as run_moe
+
+        config = replace(MOE_QUICK if args.quick else MoeConfig(), scene=args.scene,
+                         bundle=args.bundle, data=args.data)
+        run_moe(config, args.out, args.plot)
+        return 0
     if getattr(args, "bench_command", None) == "decide":
         from dataclasses import replace
 

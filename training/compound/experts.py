@@ -43,6 +43,8 @@ class ExpertConfig:
 
     members: int = 3  # K, networks per committee
     hidden: tuple[int, ...] = (64, 64)  # hidden widths of a member
+    activation: str = "relu"  # hidden activation: relu fits the piecewise-linear depth of a
+    # contact (linear in the pose between feature switches) better than tanh
     max_regions: int = 8  # committees are fitted for at most this many regions (most rows)
     min_rows: int = 300  # ... each with at least this many training contacts
     fit: FitConfig = field(default_factory=lambda: FitConfig(
@@ -113,8 +115,8 @@ def fit_regions(rows: CompoundRows, parts_a, parts_b, point_tol, tol: Tolerances
         offset += len(members)
     x, y = np.concatenate(x_parts), np.concatenate(y_parts)
     k = config.members
-    spec = MLPSpec("tanh", (x.shape[1], *config.hidden, N_EXPERT_OUTPUTS), GROUP_INPUTS,
-                   PART_CONTACT_OUTPUTS)
+    spec = MLPSpec(config.activation, (x.shape[1], *config.hidden, N_EXPERT_OUTPUTS),
+                   GROUP_INPUTS, PART_CONTACT_OUTPUTS)
     generator = torch.Generator().manual_seed(seed)
     model = StackedMLP(spec, k * len(chosen), generator)
     in_stats = [input_statistics(x[t]) for t in train for _ in range(k)]

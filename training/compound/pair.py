@@ -53,8 +53,9 @@ class CompoundTrainConfig:
     timing: TimingConfig = field(default_factory=TimingConfig)  # the decision's timings
     best_case_first: bool = False  # stage 3: skip the classifier where even the best case
     # loses (faster; the pair then has no classifier figures)
-    keep_models: bool = False  # keep an exact-only pair's models in the bundle (inspection,
-    # tests; the service still answers it with the oracle)
+    keep_models: bool = True  # keep an exact-only pair's models in the bundle (the bench
+    # measures them with the decision lifted;
+    # the service still answers the pair with the oracle)
 
 
 def train_compound_pair(scene, pair, data: dict, config: CompoundTrainConfig,
@@ -118,7 +119,7 @@ def train_compound_pair(scene, pair, data: dict, config: CompoundTrainConfig,
                          "figures": figures | speed,
                          "seconds": round(time.perf_counter() - start, 1)}
     log(f"{pair.key}: {serve} ({'; '.join(reasons) or 'every goal met'})")
-    if serve == "exact-only" and not config.keep_models:  # nothing to serve: the bundle keeps the figures, not the models
+    if serve == "exact-only" and not config.keep_models:  # the figures stay, not the models
         entry["groups"] = [{k: v for k, v in g.items() if k == "figures"} | {"name": g["name"]}
                            for g in group_entries]
         return entry, {}, {}

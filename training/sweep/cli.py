@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
             scene = load_scene(args.scene or study.user_attrs["scene_source"])
         else:
             scene = load_scene(args.scene or "quay_crane")
-            scene.require_box_pairs("impactnet sweep")  # compound pairs: issue #21
+            _check_scene(scene, args)
             study = open_study(config, scene)
             if "scene_source" not in study.user_attrs:
                 study.set_user_attr("scene_source", str(args.scene or "quay_crane"))
@@ -120,6 +120,19 @@ def run(args: argparse.Namespace) -> int:
         print(f"impactnet sweep: {exc}", file=sys.stderr)
         return EXIT_USAGE
     return _report_and_publish(args, config, study, scene)
+
+
+def _check_scene(scene, args) -> None:
+    """A scene of box pairs, or of compound pairs only (ValueError otherwise); a compound
+    study's pick is not published (retrain it with `impactnet train`)."""
+    from impactnet.training.data.compound_dataset import compound_pairs
+
+    compound = compound_pairs(scene)
+    if compound and len(compound) != len(scene.pairs):
+        scene.require_box_pairs("impactnet sweep")  # a mixed scene: refused, naming a pair
+    if compound and args.out:
+        raise ValueError("--out publishes box bundles only; train a compound scene's pick "
+                         "with `impactnet train` and the trial's settings")
 
 
 def _report_and_publish(args, config, study, scene) -> int:

@@ -39,9 +39,11 @@ def trial_rows(study, scene: Scene) -> list[dict]:
     for trial in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,)):
         attrs = trial.user_attrs
         normal, point = attrs.get("auto_normal_p99"), attrs.get("auto_point_p99")
-        meets = (normal is not None and point is not None
-                 and normal <= scene.accuracy.normal_deg
-                 and point <= scene.accuracy.point_fraction)
+        meets = attrs.get("meets")  # compound trials record it (their point is in tolerances)
+        if meets is None:
+            meets = (normal is not None and point is not None
+                     and normal <= scene.accuracy.normal_deg
+                     and point <= scene.accuracy.point_fraction)
         rows.append({"number": trial.number, "params": dict(trial.params),
                      "params_text": _params_text(trial.params),
                      **dict(zip(OBJECTIVES, trial.values)), **attrs,
@@ -75,7 +77,8 @@ def pareto_table(rows: list[dict], picked: dict | None) -> str:
     lines = ["| " + " | ".join(h for h, _, _ in _COLUMNS) + " |",
              "|" + "|".join("---:" if k != "params_text" else "---" for _, k, _ in _COLUMNS) + "|"]
     for row in front:
-        cells = [fmt.format(row.get(key)) for _, key, fmt in _COLUMNS]
+        cells = ["-" if row.get(key) is None else fmt.format(row.get(key))
+                 for _, key, fmt in _COLUMNS]  # a compound trial has no committee_us
         if picked is not None and row["number"] == picked["number"]:
             cells[0] = f"**{cells[0]} (pick)**"
         lines.append("| " + " | ".join(cells) + " |")
