@@ -69,7 +69,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         config = _config(args)
         scene = load_scene(args.scene)
-        scene.require_box_pairs("impactnet evaluate")  # compound pairs: issue #21
+        if _compound_scene(scene):
+            return _run_compound(scene, args)
+        scene.require_box_pairs("impactnet evaluate")  # a scene mixing both is refused
         bundle = Path(args.bundle or f"models/bundles/{scene.name}")
         if not bundle.is_dir():
             raise ValueError(f"no bundle at {bundle} (build one with `impactnet train --scene "
@@ -84,6 +86,33 @@ def run(args: argparse.Namespace) -> int:
     if args.check and not results["goals_met"]:
         return EXIT_GOAL_MISSED
     return EXIT_OK
+
+
+def _compound_scene(scene) -> bool:
+    from impactnet.training.data.compound_dataset import compound_pairs
+
+    return bool(scene.pairs) and len(compound_pairs(scene)) == len(scene.pairs)
+
+
+def _run_compound(scene, args: argparse.Namespace) -> int:
+    """`impactnet evaluate` on a scene of compound pairs
+    (:mod:`impactnet.training.evaluate.compound`); ``--out`` defaults to
+    docs/evaluation/<scene>."""
+    from impactnet.training.evaluate.compound import evaluate_compound
+    from impactnet.training.evaluate.compound_report import write
+
+    bundle = args.bundle or f"models/bundles/{scene.name}"
+    rows = args.rows or (200 if args.quick else 2000)
+    out = args.out if args.out != DEFAULT_OUT else f"{DEFAULT_OUT}/{scene.name}"
+    result = evaluate_compound(scene, bundle, rows, args.seed)
+    paths = write(result, out)
+    for p in result["pairs"]:
+        goals = p.get("goals") or {}
+        print(f"  {p['pair']}: serves {p['serve']}; goals "
+              + (", ".join(f"{k} {'met' if v else 'MISSED'}" for k, v in goals.items())
+                 or "not scored (no models)"))
+    print(f"wrote {', '.join(str(p) for p in paths)} in {result['seconds']:.1f} s")
+    return EXIT_GOAL_MISSED if args.check and not result["goals_met"] else EXIT_OK
 
 
 def _print_goals(results: dict) -> None:
