@@ -97,6 +97,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     moe.add_argument("--data", default="data", help="training data folder (held-out rows)")
     moe.add_argument("--out", metavar="DIR", help="write moe.md, moe.json and the plot there")
     moe.add_argument("--plot", metavar="PNG", help="the plot's path (default: in --out)")
+    moe.add_argument("--http", action="store_true", help="also issue #21's HTTP goals: a "
+                     "server on 127.0.0.1 with the scene, /v1/contact and a 100k npz batch")
     decide = sub.add_parser(
         "decide", help="per pair of a box scene: exact-only or learned, by issue #21's rule",
         description="Per pair of a box scene: the exact solver and the bundle's auto mode "
@@ -136,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         from impactnet.training.bench.moe import run as run_moe
 
         config = replace(MOE_QUICK if args.quick else MoeConfig(), scene=args.scene,
-                         bundle=args.bundle, data=args.data)
+                         bundle=args.bundle, data=args.data, http=args.http)
         run_moe(config, args.out, args.plot)
         return 0
     if getattr(args, "bench_command", None) == "decide":

@@ -55,9 +55,13 @@ class MoeConfig:
     rows: int = 2000  # rows labelled per pair when there is no training data
     timing: TimingConfig = TimingConfig(batch_poses=100_000, single_calls=200, warmup=20)
     seed: int = 0  # split seed (the training's) and labelling seed
+    http: bool = False  # also the HTTP goals (impactnet.training.bench.moe_http)
+    http_requests: int = 500  # single-pair requests per mode (and /healthz requests)
+    http_batch: int = 100_000  # spreader poses in the npz batch per mode
 
 
-QUICK = MoeConfig(rows=300, timing=TimingConfig(batch_poses=2000, single_calls=20, warmup=3))
+QUICK = MoeConfig(rows=300, timing=TimingConfig(batch_poses=2000, single_calls=20, warmup=3),
+                  http_requests=50, http_batch=500)
 
 
 def _rows(scene, k: int, pair, config: MoeConfig):
@@ -153,15 +157,23 @@ def run(config: MoeConfig, out: str | None = None, plot: str | None = None) -> d
     scene = load_scene(config.scene)
     folder = config.bundle or DEFAULT_BUNDLE.parent / scene.name
     bundle = read_bundle(resolve_bundle(folder))
-    pairs, detail = [], []
+    pairs, detail, http = [], [], None
     for k, pair in enumerate(compound_pairs(scene)):
         models = bundle.compound.get(pair.key)
         pairs.append(measure_pair(scene, k, pair, models, config))
-        if pair.key == "container40/spreader" and models is not None and models.classifiers:
-            rows, _ = _rows(scene, k, pair, config)
+        if pair.key != "container40/spreader":
+            continue
+        rows, _ = _rows(scene, k, pair, config)
+        if models is not None and models.classifiers:
             detail = detail_costs(scene, models, rows, config)
+        if config.http:
+            from impactnet.training.bench.moe_http import measure_http
+
+            http = measure_http(config.scene, config.bundle, rows.position[rows.test],
+                                rows.quaternion[rows.test], config.http_requests,
+                                config.http_batch)
     result = {"scene": scene.name, "version": bundle.version, "config": dataclasses.asdict(config),
-              "machine": machine_info(), "pairs": pairs, "detail": detail,
+              "machine": machine_info(), "pairs": pairs, "detail": detail, "http": http,
               "seconds": time.perf_counter() - start}
     text = report(result)
     print(text)

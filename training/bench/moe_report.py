@@ -55,6 +55,10 @@ def report(result: dict) -> str:
                          f"{r['auto_batch_us']:,.0f} | {r['classifier_batch_us']:,.1f} | "
                          f"{r['oracle_n1_us']:,.0f} | {r['auto_n1_us']:,.0f} | "
                          f"{r['classifier_n1_us']:,.0f} |")
+    if result.get("http"):
+        from impactnet.training.bench.moe_http import http_lines
+
+        lines += http_lines(result["http"])
     return "\n".join(lines)
 
 

@@ -1,0 +1,93 @@
+"""`impactnet bench moe --http`: issue #21's HTTP goals on the detailed scene, on loopback.
+
+A server (``python -m impactnet.service``) is started on a free loopback port with the
+detailed scene and its bundle (:func:`impactnet.training.bench.http.running_server`); with one
+keep-alive client (the simulator's, :class:`impactnet.service.client.ImpactClient`), in one run:
+
+* the floor: ``GET /healthz`` latency percentiles;
+* ``POST /v1/contact``: a spreader on a 40 ft container (the pair's held-out poses in turn),
+  mode ``auto`` and mode ``exact``: latency percentiles, and p50 over the floor's p50
+  (goal: <= 2.5x in mode auto);
+* ``POST /v1/contact/batch`` as npz: ``batch_poses`` spreader poses end to end, mode ``auto``
+  and mode ``exact`` (goal: auto >= 2.5x faster).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from impactnet.training.bench.http import running_server
+
+#: The goals of issue #21 over HTTP.
+CONTACT_OVER_FLOOR_MAX, BATCH_SPEEDUP_MIN = 2.5, 2.5
+IDENTITY = [1.0, 0.0, 0.0, 0.0]
+
+
+def _percentiles(seconds: list[float]) -> dict:
+    ms = np.asarray(seconds) * 1e3
+    return {"n": len(ms), "p50_ms": float(np.percentile(ms, 50)),
+            "p99_ms": float(np.percentile(ms, 99))}
+
+
+def _latency(call, n: int, warmup: int) -> dict:
+    for k in range(warmup):
+        call(k)
+    times = []
+    for k in range(n):
+        start = time.perf_counter()
+        call(k)
+        times.append(time.perf_counter() - start)
+    return _percentiles(times)
+
+
+def measure_http(scene: str, bundle: str | None, position: np.ndarray, quaternion: np.ndarray,
+                 requests: int, batch_poses: int, log=print) -> dict:
+    """The figures of the module docstring; ``position`` (k, 3), ``quaternion`` (k, 4): B's
+    (the spreader's) poses with the container at the origin."""
+    out = {}
+    with running_server(scene, bundle, log) as (client, info):
+        out["server"] = info
+        out["floor"] = _latency(lambda k: client.request("GET", "/healthz"), requests, 20)
+        for mode in ("auto", "exact"):
+            def one(k, mode=mode):
+                i = k % len(position)
+                client.contact({"object": "container40", "position": [0, 0, 0],
+                                "quaternion": IDENTITY},
+                               {"object": "spreader", "position": position[i].tolist(),
+                                "quaternion": quaternion[i].tolist()}, mode=mode)
+            out[f"contact_{mode}"] = _latency(one, requests, 20)
+        take = np.resize(np.arange(len(position)), batch_poses)
+        columns = {"a_object": np.array("container40"), "a_position": np.zeros(3),
+                   "a_quaternion": np.array(IDENTITY), "b_object": np.array("spreader"),
+                   "b_position": position[take], "b_quaternion": quaternion[take]}
+        for mode in ("auto", "exact"):
+            start = time.perf_counter()
+            answer = client.batch(columns, mode=mode)
+            out[f"batch_{mode}"] = {"poses": batch_poses, "seconds": time.perf_counter() - start,
+                                    "answered_by": {str(p): int((answer["predictor"] == p).sum())
+                                                    for p in np.unique(answer["predictor"])}}
+    floor = out["floor"]["p50_ms"]
+    out["contact_auto_over_floor"] = out["contact_auto"]["p50_ms"] / floor
+    out["contact_exact_over_floor"] = out["contact_exact"]["p50_ms"] / floor
+    out["batch_speedup"] = out["batch_exact"]["seconds"] / out["batch_auto"]["seconds"]
+    out["goals"] = {"contact_auto_over_floor": out["contact_auto_over_floor"]
+                    <= CONTACT_OVER_FLOOR_MAX,
+                    "batch_speedup": out["batch_speedup"] >= BATCH_SPEEDUP_MIN}
+    return out
+
+
+def http_lines(http: dict) -> list[str]:
+    """The HTTP section of the report."""
+    f, ca, ce = http["floor"], http["contact_auto"], http["contact_exact"]
+    ba, be = http["batch_auto"], http["batch_exact"]
+    return ["", "## Over HTTP (detailed scene, spreader on a 40 ft container, loopback)", "",
+            "| measurement | p50 | p99 | over the /healthz floor (p50) |", "|---|---|---|---|",
+            f"| GET /healthz (floor) | {f['p50_ms']:.2f} ms | {f['p99_ms']:.2f} ms | 1x |",
+            f"| POST /v1/contact, auto | {ca['p50_ms']:.2f} ms | {ca['p99_ms']:.2f} ms | "
+            f"{http['contact_auto_over_floor']:.1f}x (goal <= {CONTACT_OVER_FLOOR_MAX}x) |",
+            f"| POST /v1/contact, exact | {ce['p50_ms']:.2f} ms | {ce['p99_ms']:.2f} ms | "
+            f"{http['contact_exact_over_floor']:.1f}x |", "",
+            f"npz batch of {ba['poses']:,} spreader poses, end to end: auto "
+            f"{ba['seconds']:.1f} s ({ba['answered_by']}), exact {be['seconds']:.1f} s: auto "
+            f"is {http['batch_speedup']:.2f}x faster (goal >= {BATCH_SPEEDUP_MIN}x)."]
