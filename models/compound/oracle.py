@@ -252,13 +252,18 @@ def _in_order(pieces, k: int) -> Contacts:
     order = np.concatenate([rows for rows, _ in pieces])
     where = np.empty(k, np.int64)
     where[order] = np.arange(k)
-    arrays = [found.arrays() for _, found in pieces]
+    return concatenated([found for _, found in pieces], where)
+
+
+def concatenated(pieces: list[Contacts], take: np.ndarray) -> Contacts:
+    """The rows of ``pieces`` one after another, then rows ``take`` of that; features int32."""
+    arrays = [found.arrays() for found in pieces]
     merged = {}
     for name in arrays[0]:
         column = np.concatenate([a[name] for a in arrays])
         if name in ("feature_a", "feature_b"):
             column = column.astype(np.int32)
-        merged[name] = column[where]
+        merged[name] = column[take]
     return Contacts(**merged)
 
 

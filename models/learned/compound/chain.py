@@ -27,6 +27,7 @@ from impactnet.models.compound.oracle import (
     ORACLE_CHUNK,
     PartContacts,
     compound_contacts,
+    concatenated,
     joined,
     part_pair_contacts,
 )
@@ -162,19 +163,12 @@ def merged(pieces, n: int) -> PartContacts:
     Contacts)``."""
     pose = np.concatenate([p[0] for p in pieces]).astype(np.int64)
     order = np.argsort(pose, kind="stable")
-    arrays = [p[3].arrays() for p in pieces]
-    columns = {}
-    for name in arrays[0]:
-        column = np.concatenate([a[name] for a in arrays])
-        if name in ("feature_a", "feature_b"):
-            column = column.astype(np.int32)
-        columns[name] = column[order]
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(np.bincount(pose, minlength=n), out=offsets[1:])
     return PartContacts(pose[order],
                         np.concatenate([p[1] for p in pieces]).astype(np.int16)[order],
                         np.concatenate([p[2] for p in pieces]).astype(np.int16)[order],
-                        Contacts(**columns), offsets)
+                        concatenated([p[3] for p in pieces], order), offsets)
 
 
 def chain_of(models, parts_a, parts_b) -> CompoundChain:
