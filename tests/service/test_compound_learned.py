@@ -94,3 +94,17 @@ def test_the_pair_in_the_other_order_or_recorded_exact_only_is_answered_by_the_o
     answer = exact_only.post("/v1/contact/batch",
                              json=_batch(position, quaternion, "auto")).json()
     assert set(answer["predictor"]) == {"oracle"}
+
+
+def test_the_shipped_detail_bundle_loads_and_serves_its_recorded_decisions(make_client):
+    served = make_client(scene="quay_crane_detail", bundle=None)  # the shipped bundle
+    bundle = served.get("/v1/models").json()["bundle"]
+    assert bundle["version"].startswith("quay_crane_detail-")
+    pairs = bundle["compound_pairs"]
+    assert set(pairs) == {"container40/container40", "container40/container20",
+                          "container40/spreader", "cell_guide/container40"}
+    position, quaternion = _held_out(3)
+    answer = served.post("/v1/contact/batch", json=_batch(position, quaternion, "auto")).json()
+    expected = {"oracle"} if pairs[GUIDE_PAIR]["serve"] == "exact-only" else {
+        "oracle", "exact-part", "learned"}
+    assert set(answer["predictor"]) <= expected
