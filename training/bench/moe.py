@@ -41,8 +41,6 @@ from impactnet.training.compound.rows import pair_columns, split_rows
 
 #: Twistlock head sides of the cost-against-detail measurement.
 DETAIL_SIDES = (8, 32, 128)
-#: Poses per batch of the cost-against-detail measurement.
-DETAIL_BATCH = 4096
 
 
 @dataclass(frozen=True)
@@ -58,10 +56,11 @@ class MoeConfig:
     http: bool = False  # also the HTTP goals (impactnet.training.bench.moe_http)
     http_requests: int = 500  # single-pair requests per mode (and /healthz requests)
     http_batch: int = 100_000  # spreader poses in the npz batch per mode
+    detail_batch: int = 4096  # poses per batch of the cost-against-detail measurement
 
 
 QUICK = MoeConfig(rows=300, timing=TimingConfig(batch_poses=2000, single_calls=20, warmup=3),
-                  http_requests=50, http_batch=500)
+                  http_requests=50, http_batch=500, detail_batch=256)
 
 
 def _rows(scene, k: int, pair, config: MoeConfig):
@@ -114,8 +113,9 @@ def detail_costs(scene, models, rows, config: MoeConfig) -> list[dict]:
     from impactnet.models.geometry.rotations import quaternion_to_matrix
 
     parts_a = scene.body("container40").parts
-    position = np.resize(rows.position[rows.test], (DETAIL_BATCH, 3))
-    quaternion = np.resize(rows.quaternion[rows.test], (DETAIL_BATCH, 4))
+    batch = config.detail_batch
+    position = np.resize(rows.position[rows.test], (batch, 3))
+    quaternion = np.resize(rows.quaternion[rows.test], (batch, 4))
     out = []
     for sides in DETAIL_SIDES:
         parts_b = cb.spreader("40ft", sides=sides)
@@ -131,10 +131,10 @@ def detail_costs(scene, models, rows, config: MoeConfig) -> list[dict]:
         row = {"sides": sides}
         for name, fn in (("oracle", oracle), ("auto", auto)):
             row[f"{name}_batch_us"] = median_repeated(lambda fn=fn: fn(position, quaternion),
-                                                      1) / DETAIL_BATCH * 1e6
+                                                      1) / batch * 1e6
             row[f"{name}_n1_us"] = median_per_call(fn, singles, config.timing.warmup)[0] * 1e6
         row["classifier_batch_us"] = median_repeated(
-            lambda: chain.candidates(position, rotation), 1) / DETAIL_BATCH * 1e6
+            lambda: chain.candidates(position, rotation), 1) / batch * 1e6
         row["classifier_n1_us"] = median_per_call(
             lambda p, r: chain.candidates(p, r),
             [(position[i:i + 1], rotation[i:i + 1]) for i in range(config.timing.single_calls)],

@@ -101,24 +101,55 @@ def fit_regions(rows: CompoundRows, parts_a, parts_b, point_tol, tol: Tolerances
                for (i, j), c in zip(keys.tolist(), counts.tolist())}
     if not chosen:
         return {}, entries, {}, {}
+    x, y, train, val, frames = _region_table(rows, parts_a, parts_b, chosen)
+    model, spec = _fit_members(x, y, train, val, config, seed)
+    committees, tensors, specs = {}, {}, {}
+    k = config.members
+    for r, ((i, j), frame) in enumerate(zip(chosen, frames)):
+        names = [f"{prefix}.region_{i}_{j}.m{m}" for m in range(k)]
+        exported = [model.export(r * k + m, name) for m, name in enumerate(names)]
+        mlps = tuple(MLP.from_tensors(n, t, spec) for n, t in zip(names, exported))
+        outs = np.stack([mlp.forward(x[val[r]].astype(np.float32)) for mlp in mlps])
+        entry = entries[f"{i}/{j}"]
+        entry["figures"] = _validation_figures(outs, y[val[r]], tol, point_tol(i, j))
+        ratios = entry["figures"]["p99_over_tolerance"]
+        if ratios is None or max(ratios.values()) > 1.0:
+            continue  # the exact part-pair solver stays this region's expert
+        entry |= _committee_entry(rows, names, frame, outs)
+        specs |= {name: spec.to_dict() for name in names}
+        for t in exported:
+            tensors |= t
+        committees[(i, j)] = RegionCommittee(
+            i, j, frame, mlps, entry["sure_min"], entry["normal_spread_max_deg"],
+            entry["depth_spread_max_m"], entry["contact_type_code"], entry["feature_a"],
+            entry["feature_b"])
+    return committees, entries, tensors, specs
+
+
+def _region_table(rows: CompoundRows, parts_a, parts_b, chosen):
+    """(x (m, 9), y (m, 8), training rows per region, validation rows per region, frames):
+    the contacts of the chosen regions, one block per region."""
     x_parts, y_parts, train, val, frames, offset = [], [], [], [], [], 0
     for i, j in chosen:
         frame = _frame(parts_a, parts_b, i, j)
         members = np.flatnonzero((rows.part_a == i) & (rows.part_b == j))
-        x_parts.append(group_features(frame, rows.position[rows.pose[members]],
-                                      rows.rotation[rows.pose[members]]))
-        y_parts.append(_targets(rows, members, frame))
         at = rows.pose[members]
+        x_parts.append(group_features(frame, rows.position[at], rows.rotation[at]))
+        y_parts.append(_targets(rows, members, frame))
         train.append(offset + np.flatnonzero(np.isin(at, rows.train)))
         val.append(offset + np.flatnonzero(np.isin(at, rows.val)))
         frames.append(frame)
         offset += len(members)
-    x, y = np.concatenate(x_parts), np.concatenate(y_parts)
+    return np.concatenate(x_parts), np.concatenate(y_parts), train, val, frames
+
+
+def _fit_members(x, y, train, val, config: ExpertConfig, seed: int):
+    """(StackedMLP of K networks per region, their spec), fitted on each region's rows."""
     k = config.members
     spec = MLPSpec(config.activation, (x.shape[1], *config.hidden, N_EXPERT_OUTPUTS),
                    GROUP_INPUTS, PART_CONTACT_OUTPUTS)
     generator = torch.Generator().manual_seed(seed)
-    model = StackedMLP(spec, k * len(chosen), generator)
+    model = StackedMLP(spec, k * len(train), generator)
     in_stats = [input_statistics(x[t]) for t in train for _ in range(k)]
     out_stats = [column_statistics(y[t]) for t in train for _ in range(k)]
     model.set_normalisation(*(np.stack(s) for s in zip(*in_stats)),
@@ -128,42 +159,32 @@ def fit_regions(rows: CompoundRows, parts_a, parts_b, point_tol, tol: Tolerances
         torch.as_tensor(y, dtype=torch.float32), GroupRows([t for t in train for _ in range(k)]),
         GroupRows([v if len(v) else t for t, v in zip(train, val) for _ in range(k)]),
         config.fit, generator, desc="committees", progress=False)
-    committees, tensors, specs = {}, {}, {}
-    for r, ((i, j), frame) in enumerate(zip(chosen, frames)):
-        names = [f"{prefix}.region_{i}_{j}.m{m}" for m in range(k)]
-        mlps = []
-        for m, name in enumerate(names):
-            exported = model.export(r * k + m, name)
-            mlps.append(MLP.from_tensors(name, exported, spec))
-            tensors |= exported
-        outs = np.stack([mlp.forward(x[val[r]].astype(np.float32)) for mlp in mlps])
-        mean = outs.mean(axis=0).astype(np.float64)
-        errors = region_errors(mean, y[val[r]]) if len(val[r]) else None
-        ratios = None if errors is None else {
-            "depth": errors["depth_m"] / tol.depth_m,
-            "normal": errors["normal_deg"] / tol.normal_deg,
-            "point": errors["point_m"] / point_tol(i, j)}
-        meets = ratios is not None and max(ratios.values()) <= 1.0
-        entry = entries[f"{i}/{j}"]
-        entry["figures"] = {"validation_contacts": int(len(val[r])), "p99": errors,
-                            "p99_over_tolerance": ratios}
-        if not meets:
-            continue
-        spread_deg = np.max([angle_deg(o[:, 1:4], mean[:, 1:4]) for o in outs], axis=0)
-        spread_depth = outs[:, :, 0].max(axis=0) - outs[:, :, 0].min(axis=0)
-        typ = _most_frequent(rows, i, j)
-        entry |= {"expert": "committee", "members": names, "sure_min": 0.5,
-                  "normal_spread_max_deg": float(np.quantile(spread_deg, SPREAD_QUANTILE)),
-                  "depth_spread_max_m": float(np.quantile(spread_depth, SPREAD_QUANTILE)),
-                  "frame": {"centre_a": list(frame.centre_a), "centre_b": list(frame.centre_b)}
-                  } | typ
-        specs |= {name: spec.to_dict() for name in names}
-        committees[(i, j)] = RegionCommittee(
-            i, j, frame, tuple(mlps), 0.5, entry["normal_spread_max_deg"],
-            entry["depth_spread_max_m"], typ["contact_type_code"], typ["feature_a"],
-            typ["feature_b"])
-    return committees, entries, {k: v for k, v in tensors.items()
-                                 if k.rsplit(".", 1)[0] in specs}, specs
+    return model, spec
+
+
+def _validation_figures(outs: np.ndarray, want: np.ndarray, tol: Tolerances,
+                        point_tol: float) -> dict:
+    """p99 errors of the members' mean (outs (K, m, 8)) on a region's validation contacts."""
+    if not len(want):
+        return {"validation_contacts": 0, "p99": None, "p99_over_tolerance": None}
+    errors = region_errors(outs.mean(axis=0).astype(np.float64), want)
+    return {"validation_contacts": int(len(want)), "p99": errors,
+            "p99_over_tolerance": {"depth": errors["depth_m"] / tol.depth_m,
+                                   "normal": errors["normal_deg"] / tol.normal_deg,
+                                   "point": errors["point_m"] / point_tol}}
+
+
+def _committee_entry(rows: CompoundRows, names, frame: PartGroup, outs: np.ndarray) -> dict:
+    """The manifest fields of a region that takes its committee: members, limits, type."""
+    mean = outs.mean(axis=0)
+    spread_deg = np.max([angle_deg(o[:, 1:4], mean[:, 1:4]) for o in outs], axis=0)
+    spread_depth = outs[:, :, 0].max(axis=0) - outs[:, :, 0].min(axis=0)
+    i, j = frame.parts_a[0], frame.parts_b[0]
+    return {"expert": "committee", "members": list(names), "sure_min": 0.5,
+            "normal_spread_max_deg": float(np.quantile(spread_deg, SPREAD_QUANTILE)),
+            "depth_spread_max_m": float(np.quantile(spread_depth, SPREAD_QUANTILE)),
+            "frame": {"centre_a": list(frame.centre_a), "centre_b": list(frame.centre_b)}
+            } | _most_frequent(rows, i, j)
 
 
 def _most_frequent(rows: CompoundRows, i: int, j: int) -> dict:

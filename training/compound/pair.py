@@ -79,40 +79,25 @@ def train_compound_pair(scene, pair, data: dict, config: CompoundTrainConfig,
     entry = {"parts_a": [p.name for p in parts_a], "parts_b": [p.name for p in parts_b],
              "regions": regions, "rows": {"train": len(rows.train), "validation": len(rows.val),
                                           "test": len(rows.test)}}
-    oracle = oracle_call(parts_a, parts_b)
-    test_position, test_quaternion = rows.position[rows.test], rows.quaternion[rows.test]
     if not committees and config.best_case_first:
-        bound = best_case_timings(parts_a, parts_b, rows, config.timing)
-        entry["best_case"] = bound
-        if min(bound["speedup_n1"], bound["speedup_batch"]) < SPEEDUP_REQUIRED:
-            reason = (f"even naming exactly the touching part pairs for free, the exact "
-                      f"part-pair solver is {bound['speedup_n1']:.2f}x the oracle's speed at "
-                      f"N = 1 and {bound['speedup_batch']:.2f}x at N = "
-                      f"{bound['batch_poses']:,}, and no region's committee meets the "
-                      f"tolerance: no classifier can make this pair pay")
-            entry["decision"] = {"serve": "exact-only", "rule": _rule(), "reasons": [reason],
-                                 "figures": bound, "seconds": round(time.perf_counter()
-                                                                    - start, 1)}
-            log(f"{pair.key}: exact-only ({reason})")
+        hopeless = _hopeless(parts_a, parts_b, rows, config.timing)
+        if hopeless is not None:
+            entry["best_case"] = hopeless["figures"]
+            entry["decision"] = hopeless | {"seconds": round(time.perf_counter() - start, 1)}
+            log(f"{pair.key}: exact-only ({hopeless['reasons'][0]})")
             return entry, {}, {}
-    groups = part_groups(parts_a, parts_b)
-    classifiers, group_entries = [], []
-    for g in range(len(groups)):
-        name = f"{prefix}.classifier_{groups[g].name}"
-        clf, t, s, figures = train_group(rows, groups, g, config.classifier, name,
-                                         config.seed + g)
-        classifiers.append(clf)
-        group_entries.append(group_entry(clf, name) | {"figures": figures})
-        tensors |= t
-        specs |= s
+    classifiers, group_entries, t, s = _classifiers(rows, parts_a, parts_b, config, prefix)
+    tensors, specs = tensors | t, specs | s
     chain = CompoundChain(pair.key, parts_a, parts_b, tuple(classifiers), committees)
-    answer = chain.answer(np.zeros(3), np.array([1.0, 0, 0, 0]), test_position, test_quaternion)
-    figures = held_out_figures(answer, rows, rows.test, tol, point_tol)
 
     def auto(position, quaternion):
         return chain.answer(np.zeros(3), np.array([1.0, 0, 0, 0]), position, quaternion)
 
-    speed = timings(oracle, auto, test_position, test_quaternion, config.timing)
+    test_position, test_quaternion = rows.position[rows.test], rows.quaternion[rows.test]
+    figures = held_out_figures(auto(test_position, test_quaternion), rows, rows.test, tol,
+                               point_tol)
+    speed = timings(oracle_call(parts_a, parts_b), auto, test_position, test_quaternion,
+                    config.timing)
     serve, reasons = pair_decision(figures, speed)
     entry["groups"] = group_entries
     entry["decision"] = {"serve": serve, "rule": _rule(), "reasons": reasons,
@@ -124,6 +109,33 @@ def train_compound_pair(scene, pair, data: dict, config: CompoundTrainConfig,
                            for g in group_entries]
         return entry, {}, {}
     return entry, tensors, specs
+
+
+def _classifiers(rows, parts_a, parts_b, config: CompoundTrainConfig, prefix: str):
+    """(classifiers, their manifest entries, tensors, specs) of every group of the pair."""
+    groups = part_groups(parts_a, parts_b)
+    classifiers, entries, tensors, specs = [], [], {}, {}
+    for g in range(len(groups)):
+        name = f"{prefix}.classifier_{groups[g].name}"
+        clf, t, s, figures = train_group(rows, groups, g, config.classifier, name,
+                                         config.seed + g)
+        classifiers.append(clf)
+        entries.append(group_entry(clf, name) | {"figures": figures})
+        tensors, specs = tensors | t, specs | s
+    return classifiers, entries, tensors, specs
+
+
+def _hopeless(parts_a, parts_b, rows, timing: TimingConfig) -> dict | None:
+    """Stage 3: the exact-only decision (with the best case's figures) where even the best
+    case is not fast enough, else None."""
+    bound = best_case_timings(parts_a, parts_b, rows, timing)
+    if min(bound["speedup_n1"], bound["speedup_batch"]) >= SPEEDUP_REQUIRED:
+        return None
+    reason = (f"even naming exactly the touching part pairs for free, the exact part-pair "
+              f"solver is {bound['speedup_n1']:.2f}x the oracle's speed at N = 1 and "
+              f"{bound['speedup_batch']:.2f}x at N = {bound['batch_poses']:,}, and no "
+              f"region's committee meets the tolerance: no classifier can make this pair pay")
+    return {"serve": "exact-only", "rule": _rule(), "reasons": [reason], "figures": bound}
 
 
 def _rule() -> dict:

@@ -62,3 +62,23 @@ def test_the_bundle_reads_back_and_its_chain_matches_the_oracle_on_named_pairs(t
                                want.summary.depth[same & (got.predictor == "exact-part")],
                                atol=1e-12)
     assert bundle_in_memory(manifest, tensors).compound[GUIDE_PAIR].key == GUIDE_PAIR
+
+
+def test_the_best_case_first_decides_without_a_classifier_where_nothing_can_pay():
+    import dataclasses
+
+    from impactnet.training.compound.pair import train_compound_pair
+    from impactnet.training.compound.settings import compound_config
+
+    scene = load_scene("quay_crane_detail")
+    pair = scene.pairs[[p.key for p in scene.pairs].index(GUIDE_PAIR)]
+    config = dataclasses.replace(compound_config(0, quick=True), best_case_first=True)
+    entry, tensors, _ = train_compound_pair(scene, pair, guide_rows(), config, log=lambda m: 0)
+    best = entry["best_case"]
+    assert best["oracle_n1_us"] > 0 and best["best_case_batch_us_per_pose"] > 0
+    if min(best["speedup_n1"], best["speedup_batch"]) < 2.0:  # the guide: ~1.1x (measured)
+        assert entry["decision"]["serve"] == "exact-only" and "groups" not in entry
+        assert "no classifier can make this pair pay" in entry["decision"]["reasons"][0]
+        assert tensors == {}
+    else:
+        assert entry["groups"]
