@@ -11,7 +11,6 @@ import pytest
 from impactnet.models.bundle.format import BundleError, read_bundle, write_bundle
 
 
-
 def _mlp_tensors(name: str, widths: tuple[int, ...], seed: int) -> dict:
     rng = np.random.default_rng(seed)
     out = {}
