@@ -58,8 +58,12 @@ class ExactPredictor:
         return "<exact predictor>"
 
 
-def load_predictor(name: str = "auto", bundle: str | os.PathLike | Bundle | None = None):
+def load_predictor(name: str = "auto", bundle: str | os.PathLike | Bundle | None = None,
+                   strict: bool = True):
     """The predictor ``name`` (see the module docstring).
+
+    ``strict=False`` gives a learned predictor even where the bundle has no model of that mode
+    for any box pair (a bundle of compound pairs: every box pair is then unsupported, 422).
 
     Raises
     ------
@@ -82,6 +86,6 @@ def load_predictor(name: str = "auto", bundle: str | os.PathLike | Bundle | None
     if not isinstance(bundle, Bundle):
         bundle = read_bundle(resolve_bundle(bundle))  # a store reads its current version
     predictor = _LEARNED[name](bundle)
-    if not any(pair.supports(name) for pair in predictor.pairs) and name != "auto":
+    if strict and not any(pair.supports(name) for pair in predictor.pairs) and name != "auto":
         raise BundleError(f"bundle {bundle.version} has no {name!r} models for any pair")
     return predictor

@@ -122,8 +122,8 @@ def learned_predictors(bundle: Bundle) -> tuple[dict, dict[str, str]]:
     """Step ``build``: (mode -> predictor, mode -> why it is unavailable)."""
     predictors, unavailable = {}, {}
     for mode in LEARNED_MODES:
-        try:
-            predictors[mode] = load_predictor(mode, bundle)
+        try:  # a bundle of compound pairs serves every mode (issue #21): its box pairs none
+            predictors[mode] = load_predictor(mode, bundle, strict=not bundle.compound)
         except BundleError as exc:
             unavailable[mode] = str(exc)
     return predictors, unavailable

@@ -108,3 +108,13 @@ def test_the_shipped_detail_bundle_loads_and_serves_its_recorded_decisions(make_
     expected = {"oracle"} if pairs[GUIDE_PAIR]["serve"] == "exact-only" else {
         "oracle", "exact-part", "learned"}
     assert set(answer["predictor"]) <= expected
+
+
+def test_a_bundle_of_compound_pairs_serves_every_mode_and_refuses_box_pairs_in_strict_ones(
+        served):
+    modes = served.get("/v1/models").json()["modes"]
+    assert set(modes["available"]) == {"exact", "single", "committee", "auto"}
+    box = {"a": {"size": [2.0, 2.0, 2.0], "position": [0, 0, 0], "quaternion": IDENTITY},
+           "b": {"size": [2.0, 2.0, 2.0], "position": [0, 0, 1.99], "quaternion": IDENTITY}}
+    assert served.post("/v1/contact", json=box | {"mode": "committee"}).status_code == 422
+    assert served.post("/v1/contact", json=box | {"mode": "auto"}).json()["predictor"] == "exact"
