@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import safetensors.numpy
 
+from impactnet.models.bundle.atomic import fsync_dir, replace_folder, write_file
 from impactnet.models.learned import canonical as cn
 from impactnet.models.learned.mlp import MLP, MLPError, MLPSpec
 
@@ -292,23 +293,6 @@ def read_bundle(path) -> Bundle:
     return Bundle(manifest, mlps, pairs, folder, compound)
 
 
-def write_file(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` and fsync it."""
-    with open(path, "wb") as handle:
-        handle.write(data)
-        handle.flush()
-        os.fsync(handle.fileno())
-
-
-def fsync_dir(path: Path) -> None:
-    """Fsync a folder, so that the renames and new files in it are on disk."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
 def write_bundle(path, manifest: dict, tensors: dict[str, np.ndarray]) -> Path:
     """Write a bundle folder atomically (see the module docstring).
 
@@ -343,24 +327,9 @@ def write_bundle(path, manifest: dict, tensors: dict[str, np.ndarray]) -> Path:
         write_file(tmp / WEIGHTS, data)
         write_file(tmp / MANIFEST, text.encode("utf-8"))
         fsync_dir(tmp)
-        _replace_folder(tmp, folder)
+        replace_folder(tmp, folder)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     fsync_dir(folder.parent)
     return folder
-
-
-def _replace_folder(new: Path, folder: Path) -> None:
-    """Rename ``new`` to ``folder``, moving an existing ``folder`` away first."""
-    if not folder.exists():
-        os.rename(new, folder)
-        return
-    old = folder.parent / f".{folder.name}.old-{uuid.uuid4().hex[:12]}"
-    os.rename(folder, old)
-    try:
-        os.rename(new, folder)
-    except BaseException:
-        os.rename(old, folder)
-        raise
-    shutil.rmtree(old, ignore_errors=True)

@@ -280,18 +280,6 @@ class Objective:
         }
 
 
-def _objective(config: SweepConfig, scene: Scene):
-    """The trial of ``scene``: box pairs (:class:`Objective`) or compound pairs
-    (:class:`impactnet.training.sweep.compound_trial.CompoundObjective`)."""
-    from impactnet.training.data.compound_dataset import compound_pairs
-
-    if compound_pairs(scene):
-        from impactnet.training.sweep.compound_trial import CompoundObjective
-
-        return CompoundObjective(config, scene)
-    return Objective(config, scene)
-
-
 def state_counts(study) -> dict[str, int]:
     """Trials of the study per state name (``COMPLETE``, ``RUNNING``, ...)."""
     from optuna.trial import TrialState
@@ -329,8 +317,10 @@ def run_worker(config: SweepConfig, scene: Scene, max_failures: int = 3) -> list
     """
     from optuna.trial import TrialState
 
+    from impactnet.training.sweep.compound_trial import objective_for
+
     study = open_study(config, scene)
-    objective, ran, failures = _objective(config, scene), [], 0
+    objective, ran, failures = objective_for(config, scene), [], 0
     _log(f"study {config.study!r}: {config.trials} trials of {', '.join(study.user_attrs['pairs'])}"
          f" on {public_url(config.storage)}")
     while failures < max_failures:
