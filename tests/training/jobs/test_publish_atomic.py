@@ -16,6 +16,9 @@ from tests.training.sweep.test_sweep import loose_scene, sweep_args
 
 #: Longest a poller may run, in seconds: a bound on the tight loop if a publish hangs.
 POLL_BOUND_S = 600.0
+#: Reads of the new version the poller must make after the publisher is done, and how long
+#: the test waits for them (s): on a loaded shared machine a fixed sleep gave only 2 reads.
+READS_AFTER, READS_WAIT_S = 10, 30.0
 
 
 class TightPoller:
@@ -44,6 +47,12 @@ class TightPoller:
             if not self.seen or self.seen[-1] != folder.name:
                 self.seen.append(folder.name)
 
+    def read_more(self, count: int) -> None:
+        """Wait (up to READS_WAIT_S) until the poller has made ``count`` more reads."""
+        target, deadline = self.reads + count, time.monotonic() + READS_WAIT_S
+        while self.reads < target and time.monotonic() < deadline and self._thread.is_alive():
+            time.sleep(0.01)
+
     def __enter__(self) -> TightPoller:
         self._thread.start()
         return self
@@ -63,7 +72,7 @@ def test_train_publishes_whole_versions_under_a_tight_poll(tmp_path):
     with TightPoller(store) as poller:
         assert main([*base[:-1], "4", "--no-reuse"]) == 0  # another seed: a new version
         second = current_version(store)
-        time.sleep(0.2)  # the poller reads the new version too
+        poller.read_more(READS_AFTER)  # the poller reads the new version too
     assert second != first and not poller.errors, poller.errors[:3]
     assert poller.seen == [first, second] and poller.reads > 10
 
@@ -78,6 +87,6 @@ def test_sweep_show_out_publishes_whole_versions_under_a_tight_poll(tmp_path):
                 "--out", str(store)]
         assert main(show) == 0
         published = current_version(store)
-        time.sleep(0.2)
+        poller.read_more(READS_AFTER)
     assert published is not None and not poller.errors, poller.errors[:3]
     assert poller.seen == [published] and poller.reads > 10
