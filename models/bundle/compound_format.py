@@ -6,7 +6,7 @@ Entry ``compound_pairs["a/b"]``::
      "parts_a": [A's part names], "parts_b": [B's part names],
      "groups": [{"name", "parts_a", "parts_b", "centre_a", "centre_b", "labels": [[i, j], ...],
                  "classifier": MLP name | null, "temperature", "candidate_min",
-                 "domain_lo", "domain_hi"}, ...],
+                 "domain_lo", "domain_hi", "mirror": [+-1, +-1, 1] (optional)}, ...],
      "regions": {"i/j": {"expert": "committee" | "exact-part", "figures": {...},
                          committee only: "members", "sure_min", "normal_spread_max_deg",
                          "depth_spread_max_m", "contact_type_code", "feature_a",
@@ -87,11 +87,15 @@ def _group(entry, mlps, n_a: int, n_b: int, what: str, error) -> GroupClassifier
                                   for k in ("temperature", "candidate_min"))
     if not temperature > 0 or not 0.0 < candidate_min < 1.0:
         raise error(f"{what}: temperature > 0 and 0 < candidate_min < 1 required")
+    mirror = tuple(float(v) for v in _finite(entry.get("mirror", [1.0, 1.0, 1.0]), 3,
+                                             f"{what}.mirror", error))
+    if any(abs(v) != 1.0 for v in mirror):
+        raise error(f"{what}.mirror: each entry +1 or -1")
     return GroupClassifier(group, labels, mlp, temperature, candidate_min,
                            _finite(entry.get("domain_lo"), N_GROUP_FEATURES,
                                    f"{what}.domain_lo", error),
                            _finite(entry.get("domain_hi"), N_GROUP_FEATURES,
-                                   f"{what}.domain_hi", error))
+                                   f"{what}.domain_hi", error), mirror)
 
 
 def _committee(key: str, entry: dict, mlps, parts_a, parts_b, what: str,

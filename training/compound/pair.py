@@ -25,7 +25,13 @@ from impactnet.models.compound.oracle import part_pair_contacts
 from impactnet.models.learned.compound.chain import CompoundChain
 from impactnet.models.learned.compound.groups import part_groups
 from impactnet.training.bench.timing import median_per_call, median_repeated
-from impactnet.training.compound.classify import ClassifierConfig, group_entry, train_group
+from impactnet.training.compound.classify import (
+    ClassifierConfig,
+    group_entry,
+    pooled_maps,
+    train_group,
+    train_pooled,
+)
 from impactnet.training.compound.experts import (
     DEPTH_TOLERANCE_FRACTION,
     ExpertConfig,
@@ -115,7 +121,14 @@ def _classifiers(rows, parts_a, parts_b, config: CompoundTrainConfig, prefix: st
     """(classifiers, their manifest entries, tensors, specs) of every group of the pair."""
     groups = part_groups(parts_a, parts_b)
     classifiers, entries, tensors, specs = [], [], {}, {}
-    for g in range(len(groups)):
+    maps = pooled_maps(parts_a, parts_b, groups) if config.classifier.pooled else None
+    if maps is not None:  # the four corners share one classifier, each through its mirror
+        name = f"{prefix}.classifier_corners"
+        pooled, tensors, specs, figures = train_pooled(rows, groups, maps, config.classifier,
+                                                       name, config.seed)
+        classifiers += pooled
+        entries += [group_entry(clf, name) | {"figures": figures} for clf in pooled]
+    for g in range(len(classifiers), len(groups)):
         name = f"{prefix}.classifier_{groups[g].name}"
         clf, t, s, figures = train_group(rows, groups, g, config.classifier, name,
                                          config.seed + g)

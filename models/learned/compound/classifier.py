@@ -8,6 +8,11 @@ temperature calibrated on validation rows. A label with a probability of at leas
 ``candidate_min`` (calibrated so that no validation row misses a touching pair) is a candidate,
 which an expert then answers. A row whose features lie outside the box of the training rows
 (widened by :data:`DOMAIN_MARGIN_REL`) is *unsure*: the chain sends it to the oracle.
+
+A classifier may be shared by the four corners of symmetric bodies: each corner's group then
+sees its features through its mirror (``mirror``, :func:`impactnet.models.learned.compound.
+groups.mirror_features`) and names its own part pairs (the shared labels mapped through the
+mirror), so one network learns from four times the rows.
 """
 from __future__ import annotations
 
@@ -15,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from impactnet.models.learned.compound.groups import PartGroup, group_features
+from impactnet.models.learned.compound.groups import PartGroup, group_features, mirror_features
 from impactnet.models.learned.mlp import MLP
 
 #: The training rows' range of each feature is widened by this share of its width on each
@@ -36,6 +41,8 @@ class GroupClassifier:
     candidate_min: float  # a label with p >= this is a candidate, in (0, 1)
     domain_lo: np.ndarray  # (9,) training rows' feature minimum, widened
     domain_hi: np.ndarray  # (9,) training rows' feature maximum, widened
+    mirror: tuple[float, float, float] = (1.0, 1.0, 1.0)  # the features are seen through this
+    # mirror (a corner pooled with the others in corner fl's frame; identity: its own frame)
 
     def probabilities(self, position, rotation) -> tuple[np.ndarray, np.ndarray]:
         """(probabilities (n, v) float64, inside (n,) bool: the row lies in the domain).
@@ -47,7 +54,7 @@ class GroupClassifier:
         rotation : ndarray, shape (n, 3, 3)
             B's orientation in A's frame.
         """
-        x = group_features(self.group, position, rotation)
+        x = mirror_features(group_features(self.group, position, rotation), self.mirror)
         inside = ((x >= self.domain_lo) & (x <= self.domain_hi)).all(axis=1)
         if self.mlp is None:
             return np.zeros((len(x), 0)), inside

@@ -28,6 +28,12 @@ BODY = "body"
 #: Input features per group: B's group centre in A's group frame (3, metres) and the first two
 #: columns of B's rotation in A's frame (6).
 N_GROUP_FEATURES = 9
+#: The mirror that maps each corner onto corner ``fl`` (diagonal of M: ``fr`` across y, ``al``
+#: across x, ``ar`` both), for bodies symmetric under both mirrors (:func:`mirror_map`).
+CORNER_MIRRORS = {"fl": (1.0, 1.0, 1.0), "fr": (1.0, -1.0, 1.0), "al": (-1.0, 1.0, 1.0),
+                  "ar": (-1.0, -1.0, 1.0)}
+#: Two parts are mirror images when their bounds agree to this (m): exact up to round-off.
+MIRROR_TOL_M = 1e-9
 
 
 @dataclass(frozen=True)
@@ -89,6 +95,30 @@ def group_features(group: PartGroup, position, rotation) -> np.ndarray:
     """
     at = position + rotation @ np.asarray(group.centre_b) - np.asarray(group.centre_a)
     return np.concatenate([at, rotation[:, :, 0], rotation[:, :, 1]], axis=1)
+
+
+def mirror_features(x: np.ndarray, mirror) -> np.ndarray:
+    """Group features (n, 9) seen through ``mirror`` (3,) (+-1 each): the offset ``M p`` and
+    the rotation ``M R M`` (a proper rotation), so that a corner's rows look like corner fl's."""
+    m = np.asarray(mirror, np.float64)
+    return np.concatenate([x[:, :3] * m, x[:, 3:6] * m * m[0], x[:, 6:9] * m * m[1]], axis=1)
+
+
+def mirror_map(parts, mirror) -> np.ndarray | None:
+    """(p,) int: the index of each part's mirror image under ``mirror`` (the part whose
+    bounds are the mirrored bounds), or None where a part has none: the body is not
+    symmetric under that mirror. Mirrors are involutions, so the map is its own inverse."""
+    lows, highs = (np.array(v) for v in zip(*(bounds(p) for p in parts)))
+    centre, extent = 0.5 * (lows + highs), highs - lows
+    mirrored = centre * np.asarray(mirror, np.float64)
+    out = np.empty(len(parts), np.int64)
+    for k in range(len(parts)):
+        hit = np.flatnonzero((np.abs(centre - mirrored[k]) < MIRROR_TOL_M).all(axis=1)
+                             & (np.abs(extent - extent[k]) < MIRROR_TOL_M).all(axis=1))
+        if len(hit) != 1:
+            return None
+        out[k] = hit[0]
+    return out
 
 
 def relative_pose(position_a, rotation_a, position_b, rotation_b):

@@ -82,6 +82,7 @@ def _broken(change):
     (lambda e, m: e["groups"][0]["labels"].append([5, 0]), "out of range"),
     (lambda e, m: e["groups"][0].update(candidate_min=1.0), "candidate_min"),
     (lambda e, m: e["groups"][0].update(domain_lo=[0.0] * 8), "domain_lo"),
+    (lambda e, m: e["groups"][0].update(mirror=[1.0, 0.5, 1.0]), "mirror"),
     (lambda e, m: m["mlps"]["g.fl"].update(inputs="pose-v1"), "group-pose-v1"),
     (lambda e, m: e["regions"]["0/1"].update(expert="oracle"), "expert"),
     (lambda e, m: e["regions"]["0/1"].pop("sure_min"), "sure_min"),
