@@ -125,7 +125,8 @@ def _percentiles(seconds: list[float]) -> dict:
             "mean_ms": float(ms.mean()), "max_ms": float(ms.max())}
 
 
-def _latency(call, n: int, warmup: int) -> dict:
+def latency(call, n: int, warmup: int) -> dict:
+    """Percentiles (ms) of ``call()`` over ``n`` timed calls after ``warmup`` untimed ones."""
     for _ in range(warmup):
         call()
     times = []
@@ -254,13 +255,13 @@ def run(quick: bool = False, json_path: str | None = None, access_log: bool = Fa
         echo = ImpactClient(f"http://127.0.0.1:{echo_port}")
         api = ImpactClient(url)
         headers = {"Content-Type": "application/json"}
-        results["echo_single"] = _latency(
+        results["echo_single"] = latency(
             lambda: echo.request("POST", "/", single_body, headers), n_single, warmup)
-        results["contact"] = _latency(
+        results["contact"] = latency(
             lambda: api.request("POST", "/v1/contact", single_body, headers), n_single, warmup)
-        results["contact_client"] = _latency(lambda: api.contact(PAIR["a"], PAIR["b"]),
+        results["contact_client"] = latency(lambda: api.contact(PAIR["a"], PAIR["b"]),
                                               n_single, warmup)
-        results["healthz"] = _latency(lambda: api.request("GET", "/healthz"), n_single, warmup)
+        results["healthz"] = latency(lambda: api.request("GET", "/healthz"), n_single, warmup)
 
         import orjson
 

@@ -16,7 +16,7 @@ An exact-only pair needs no groups and no regions. The MLPs it names are declare
 manifest's ``mlps`` with the inputs :data:`GROUP_INPUTS`; a classifier gives one logit per label
 (:data:`LABEL_OUTPUTS`), a committee member :data:`N_EXPERT_OUTPUTS` values
 (:data:`PART_CONTACT_OUTPUTS`). Anything else raises
-:class:`impactnet.models.bundle.format.BundleError` (raised here as ``error``).
+:class:`impactnet.models.bundle.format.BundleError`.
 """
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from impactnet.models.bundle.format import BundleError, decision_of, finite_numbers
 from impactnet.models.learned.compound.classifier import GroupClassifier
 from impactnet.models.learned.compound.experts import N_EXPERT_OUTPUTS, RegionCommittee
 from impactnet.models.learned.compound.groups import N_GROUP_FEATURES, PartGroup
@@ -49,103 +50,97 @@ class CompoundPairModels:
     regions: dict = field(default_factory=dict)  # "i/j" -> manifest entry (expert, figures)
 
 
-def _finite(value, count: int, what: str, error) -> np.ndarray:
-    if (not isinstance(value, list) or len(value) != count
-            or not all(isinstance(v, int | float) and not isinstance(v, bool)
-                       and math.isfinite(v) for v in value)):
-        raise error(f"{what}: expected {count} finite numbers")
-    return np.asarray(value, np.float64)
+def _finite(value, count: int, what: str) -> np.ndarray:
+    return np.asarray(finite_numbers(value, count, what), np.float64)
 
 
-def _mlp(name, mlps: dict, outputs: str, n_out: int, what: str, error):
+def _mlp(name, mlps: dict, outputs: str, n_out: int, what: str):
     if not isinstance(name, str) or name not in mlps:
-        raise error(f"{what}: no MLP {name!r} in the bundle")
+        raise BundleError(f"{what}: no MLP {name!r} in the bundle")
     spec = mlps[name].spec
     if (spec.inputs != GROUP_INPUTS or spec.layers[0] != N_GROUP_FEATURES
             or spec.outputs != outputs or spec.layers[-1] != n_out):
-        raise error(f"{what}: MLP {name!r} must map {GROUP_INPUTS} ({N_GROUP_FEATURES}) to "
+        raise BundleError(f"{what}: MLP {name!r} must map {GROUP_INPUTS} ({N_GROUP_FEATURES}) to "
                     f"{n_out} {outputs}")
     return mlps[name]
 
 
-def _group(entry, mlps, n_a: int, n_b: int, what: str, error) -> GroupClassifier:
+def _group(entry, mlps, n_a: int, n_b: int, what: str) -> GroupClassifier:
     if not isinstance(entry, dict):
-        raise error(f"{what}: expected an object")
+        raise BundleError(f"{what}: expected an object")
     labels = np.asarray(entry.get("labels"), dtype=np.int64).reshape(-1, 2)
     if len(labels) and ((labels[:, 0] < 0) | (labels[:, 0] >= n_a) | (labels[:, 1] < 0)
                         | (labels[:, 1] >= n_b)).any():
-        raise error(f"{what}.labels: part index out of range")
+        raise BundleError(f"{what}.labels: part index out of range")
     group = PartGroup(str(entry.get("name")), tuple(int(k) for k in entry.get("parts_a", ())),
                       tuple(int(k) for k in entry.get("parts_b", ())),
-                      tuple(_finite(entry.get("centre_a"), 3, f"{what}.centre_a", error)),
-                      tuple(_finite(entry.get("centre_b"), 3, f"{what}.centre_b", error)))
+                      tuple(_finite(entry.get("centre_a"), 3, f"{what}.centre_a")),
+                      tuple(_finite(entry.get("centre_b"), 3, f"{what}.centre_b")))
     mlp = None
     if len(labels):
         mlp = _mlp(entry.get("classifier"), mlps, LABEL_OUTPUTS, len(labels),
-                   f"{what}.classifier", error)
+                   f"{what}.classifier")
     temperature, candidate_min = (float(entry.get(k, math.nan))
                                   for k in ("temperature", "candidate_min"))
     if not temperature > 0 or not 0.0 < candidate_min < 1.0:
-        raise error(f"{what}: temperature > 0 and 0 < candidate_min < 1 required")
+        raise BundleError(f"{what}: temperature > 0 and 0 < candidate_min < 1 required")
     mirror = tuple(float(v) for v in _finite(entry.get("mirror", [1.0, 1.0, 1.0]), 3,
-                                             f"{what}.mirror", error))
+                                             f"{what}.mirror"))
     if any(abs(v) != 1.0 for v in mirror):
-        raise error(f"{what}.mirror: each entry +1 or -1")
+        raise BundleError(f"{what}.mirror: each entry +1 or -1")
     return GroupClassifier(group, labels, mlp, temperature, candidate_min,
                            _finite(entry.get("domain_lo"), N_GROUP_FEATURES,
-                                   f"{what}.domain_lo", error),
+                                   f"{what}.domain_lo"),
                            _finite(entry.get("domain_hi"), N_GROUP_FEATURES,
-                                   f"{what}.domain_hi", error), mirror)
+                                   f"{what}.domain_hi"), mirror)
 
 
 def _committee(key: str, entry: dict, mlps, parts_a, parts_b, what: str,
-               error) -> RegionCommittee:
+               ) -> RegionCommittee:
     i, j = (int(v) for v in key.split("/"))
     if not (0 <= i < len(parts_a) and 0 <= j < len(parts_b)):
-        raise error(f"{what}: part index out of range")
+        raise BundleError(f"{what}: part index out of range")
     members = entry.get("members")
     if not isinstance(members, list) or not members:
-        raise error(f"{what}.members: a non-empty list of MLP names")
+        raise BundleError(f"{what}.members: a non-empty list of MLP names")
     frame = entry.get("frame") or {}
     return RegionCommittee(
         i, j, PartGroup(key, (i,), (j,),
-                        tuple(_finite(frame.get("centre_a"), 3, f"{what}.frame", error)),
-                        tuple(_finite(frame.get("centre_b"), 3, f"{what}.frame", error))),
-        tuple(_mlp(m, mlps, PART_CONTACT_OUTPUTS, N_EXPERT_OUTPUTS, f"{what}.members", error)
+                        tuple(_finite(frame.get("centre_a"), 3, f"{what}.frame")),
+                        tuple(_finite(frame.get("centre_b"), 3, f"{what}.frame"))),
+        tuple(_mlp(m, mlps, PART_CONTACT_OUTPUTS, N_EXPERT_OUTPUTS, f"{what}.members")
               for m in members),
         float(entry["sure_min"]), float(entry["normal_spread_max_deg"]),
         float(entry["depth_spread_max_m"]), int(entry["contact_type_code"]),
         int(entry["feature_a"]), int(entry["feature_b"]))
 
 
-def compound_pair_models(key: str, entry, mlps: dict, error) -> CompoundPairModels:
+def compound_pair_models(key: str, entry, mlps: dict) -> CompoundPairModels:
     """The verified models of manifest entry ``compound_pairs[key]``."""
     what = f"compound_pairs[{key!r}]"
     if not isinstance(entry, dict) or not isinstance(entry.get("decision"), dict):
-        raise error(f"{what}: expected an object with a `decision`")
-    serve = entry["decision"].get("serve")
-    if serve not in ("learned", "exact-only"):
-        raise error(f"{what}.decision.serve: 'learned' or 'exact-only', got {serve!r}")
+        raise BundleError(f"{what}: expected an object with a `decision`")
+    serve, decision = decision_of(entry["decision"], what)
     parts_a, parts_b = (tuple(str(n) for n in entry.get(s, ())) for s in ("parts_a", "parts_b"))
     groups = entry.get("groups", [])
     regions = entry.get("regions", {})
     if not isinstance(groups, list) or not isinstance(regions, dict):
-        raise error(f"{what}: `groups` is a list and `regions` an object")
+        raise BundleError(f"{what}: `groups` is a list and `regions` an object")
     if serve == "learned" and not groups:
-        raise error(f"{what}: a learned pair needs its groups")
+        raise BundleError(f"{what}: a learned pair needs its groups")
     classifiers = tuple(_group(g, mlps, len(parts_a), len(parts_b), f"{what}.groups[{k}]",
-                               error) for k, g in enumerate(groups))
+                               ) for k, g in enumerate(groups))
     committees = {}
     for region, block in regions.items():
         where = f"{what}.regions[{region!r}]"
         if not isinstance(block, dict) or block.get("expert") not in (EXPERT_COMMITTEE,
                                                                        EXPERT_EXACT_PART):
-            raise error(f"{where}.expert: {EXPERT_COMMITTEE!r} or {EXPERT_EXACT_PART!r}")
+            raise BundleError(f"{where}.expert: {EXPERT_COMMITTEE!r} or {EXPERT_EXACT_PART!r}")
         try:
             if block["expert"] == EXPERT_COMMITTEE:
-                c = _committee(region, block, mlps, parts_a, parts_b, where, error)
+                c = _committee(region, block, mlps, parts_a, parts_b, where)
                 committees[(c.part_a, c.part_b)] = c
         except (KeyError, TypeError, ValueError) as exc:
-            raise error(f"{where}: {exc}") from None
-    return CompoundPairModels(key, serve, entry["decision"], parts_a, parts_b, classifiers,
+            raise BundleError(f"{where}: {exc}") from None
+    return CompoundPairModels(key, serve, decision, parts_a, parts_b, classifiers,
                               committees, regions)

@@ -97,7 +97,9 @@ def _sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def _numbers(value, count: int, what: str) -> tuple[float, ...]:
+def finite_numbers(value, count: int, what: str) -> tuple[float, ...]:
+    """``value`` as ``count`` finite floats (a list or tuple of numbers, no bools), else
+    BundleError naming ``what``."""
     if (not isinstance(value, list | tuple) or len(value) != count
             or not all(isinstance(v, int | float) and not isinstance(v, bool)
                        and math.isfinite(v) for v in value)):
@@ -129,10 +131,11 @@ def _pair_models(key: str, entry, mlps: dict[str, MLP]) -> PairModels:
         raise BundleError(f"{where}: expected an object")
     if len(key.split("/")) != 2 or not all(key.split("/")):
         raise BundleError(f"{where}: pair keys are 'a/b'")
-    size_a, size_b = (_numbers(entry.get(s), 3, f"{where}.{s}") for s in ("size_a", "size_b"))
+    size_a, size_b = (finite_numbers(entry.get(s), 3, f"{where}.{s}")
+                      for s in ("size_a", "size_b"))
     if min(size_a + size_b) <= 0:
         raise BundleError(f"{where}: sizes must be > 0")
-    depth = _numbers(entry.get("depth_fraction"), 2, f"{where}.depth_fraction")
+    depth = finite_numbers(entry.get("depth_fraction"), 2, f"{where}.depth_fraction")
     if not 0.0 <= depth[0] <= depth[1] < 1.0:
         raise BundleError(f"{where}.depth_fraction: need 0 <= lo <= hi < 1, got {depth}")
     single = entry.get("single")
@@ -145,16 +148,16 @@ def _pair_models(key: str, entry, mlps: dict[str, MLP]) -> PairModels:
     if auto is not None:
         if not isinstance(auto, dict) or set(auto) != set(_AUTO_KEYS):
             raise BundleError(f"{where}.auto: expected exactly the keys {list(_AUTO_KEYS)}")
-        values = _numbers([auto[k] for k in _AUTO_KEYS], 4, f"{where}.auto")
+        values = finite_numbers([auto[k] for k in _AUTO_KEYS], 4, f"{where}.auto")
         if not 0.0 <= values[0] <= 1.0 or min(values[1:]) < 0.0:
             raise BundleError(f"{where}.auto: confidence_min in [0, 1], the others >= 0")
         auto = AutoThresholds(*values)
-    serve, decision = _decision(entry.get("decision"), where)
+    serve, decision = decision_of(entry.get("decision"), where)
     return PairModels(key, size_a, size_b, depth, single, labeller, regions, experts, auto,
                       serve, decision)
 
 
-def _decision(block, where: str) -> tuple[str, dict | None]:
+def decision_of(block, where: str) -> tuple[str, dict | None]:
     """(serve, the block) of a pair's optional ``decision``: ``{"serve": "learned" |
     "exact-only", "figures": {...}, ...}``; no block: learned."""
     if block is None:
@@ -235,7 +238,7 @@ def _compound_models(key: str, entry, mlps: dict):
     from impactnet.models.bundle.compound_format import compound_pair_models
 
     try:
-        return compound_pair_models(key, entry, mlps, BundleError)
+        return compound_pair_models(key, entry, mlps)
     except BundleError:
         raise
     except (KeyError, TypeError, ValueError) as exc:

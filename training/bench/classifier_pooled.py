@@ -18,9 +18,7 @@ then miss a touching pair and the candidates per row.
 """
 from __future__ import annotations
 
-import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -33,6 +31,7 @@ from impactnet.training.bench.classifier_probe import (
     _corner_inputs,
     label_matrix,
     labelled_rows,
+    probe_arguments,
     train_classifier,
 )
 
@@ -112,14 +111,7 @@ def report(figures: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--pair", default="container40/spreader", help="a/b of quay_crane_detail")
-    parser.add_argument("--rows", type=int, default=16000, help="first-contact rows to label")
-    parser.add_argument("--data", type=Path, help="npz cache of the labelled rows")
-    parser.add_argument("--hidden", type=int, default=128, help="width of the hidden layers")
-    parser.add_argument("--epochs", type=int, default=60, help="passes over the training rows")
-    parser.add_argument("--seed", type=int, default=7)
-    args = parser.parse_args(argv)
+    args = probe_arguments(__doc__.split("\n")[0], 16000).parse_args(argv)
     data = labelled_rows(args.pair, args.rows, args.seed, args.data)
     print(report(compare(data, args.pair, args.hidden, args.epochs, args.seed)))
     return 0

@@ -317,14 +317,21 @@ def report(figures: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def probe_arguments(description: str, rows: int) -> argparse.ArgumentParser:
+    """The options every classifier probe takes: pair, rows (default ``rows``), data cache,
+    width, epochs, seed."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--pair", default="container40/spreader", help="a/b of quay_crane_detail")
-    parser.add_argument("--rows", type=int, default=30000, help="first-contact rows to label")
+    parser.add_argument("--rows", type=int, default=rows, help="first-contact rows to label")
     parser.add_argument("--data", type=Path, help="npz cache of the labelled rows")
     parser.add_argument("--hidden", type=int, default=128, help="width of the hidden layers")
     parser.add_argument("--epochs", type=int, default=60, help="passes over the training rows")
     parser.add_argument("--seed", type=int, default=7)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = probe_arguments(__doc__.split("\n")[0], 30000)
     parser.add_argument("--curve", action="store_true",
                         help="also the learning curve of corner fl's classifier")
     parser.add_argument("--experts", type=int, default=0,

@@ -82,10 +82,9 @@ def _rows(scene, k: int, pair, config: MoeConfig):
     return dataclasses.replace(rows, test=np.arange(len(rows))), "freshly labelled rows"
 
 
-def measure_pair(scene, k: int, pair, models, config: MoeConfig) -> dict:
-    """Figures of one pair (module docstring)."""
+def measure_pair(scene, pair, models, rows, source: str, config: MoeConfig) -> dict:
+    """Figures of one pair (module docstring) on its labelled ``rows`` (held out: ``test``)."""
     parts_a, parts_b = scene.body(pair.a).parts, scene.body(pair.b).parts
-    rows, source = _rows(scene, k, pair, config)
     out = {"pair": pair.key, "rows": len(rows.test), "poses_from": source,
            "recorded": models.serve if models else None}
     if models is None or not models.classifiers:
@@ -160,10 +159,10 @@ def run(config: MoeConfig, out: str | None = None, plot: str | None = None) -> d
     pairs, detail, http = [], [], None
     for k, pair in enumerate(compound_pairs(scene)):
         models = bundle.compound.get(pair.key)
-        pairs.append(measure_pair(scene, k, pair, models, config))
+        rows, source = _rows(scene, k, pair, config)
+        pairs.append(measure_pair(scene, pair, models, rows, source, config))
         if pair.key != "container40/spreader":
             continue
-        rows, _ = _rows(scene, k, pair, config)
         if models is not None and models.classifiers:
             detail = detail_costs(scene, models, rows, config)
         if config.http:

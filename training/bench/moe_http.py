@@ -17,10 +17,12 @@ a copy of the bundle with every pair's decision lifted (:func:`lifted_copy`), an
 """
 from __future__ import annotations
 
+import itertools
 import time
 
 import numpy as np
 
+from impactnet.service.bench_http import latency
 from impactnet.training.bench.http import running_server
 
 #: The goals of issue #21 over HTTP.
@@ -28,23 +30,6 @@ CONTACT_OVER_FLOOR_MAX, BATCH_SPEEDUP_MIN = 2.5, 2.5
 IDENTITY = [1.0, 0.0, 0.0, 0.0]
 #: Seconds the client waits for a batch answer (the oracle: ~1.5 ms per spreader pose).
 BATCH_TIMEOUT_S = 1200.0
-
-
-def _percentiles(seconds: list[float]) -> dict:
-    ms = np.asarray(seconds) * 1e3
-    return {"n": len(ms), "p50_ms": float(np.percentile(ms, 50)),
-            "p99_ms": float(np.percentile(ms, 99))}
-
-
-def _latency(call, n: int, warmup: int) -> dict:
-    for k in range(warmup):
-        call(k)
-    times = []
-    for k in range(n):
-        start = time.perf_counter()
-        call(k)
-        times.append(time.perf_counter() - start)
-    return _percentiles(times)
 
 
 def lifted_copy(bundle, folder) -> str:
@@ -105,15 +90,15 @@ def _measure_server(scene: str, bundle, position, quaternion, requests: int,
     out = {}
     with running_server(scene, bundle, log) as (client, info):
         out["server"] = info
-        out["floor"] = _latency(lambda k: client.request("GET", "/healthz"), requests, 20)
+        out["floor"] = latency(lambda: client.request("GET", "/healthz"), requests, 20)
         for mode in modes:
-            def one(k, mode=mode):
-                i = k % len(position)
+            def one(mode=mode, calls=itertools.count()):  # the poses in turn
+                i = next(calls) % len(position)
                 client.contact({"object": "container40", "position": [0, 0, 0],
                                 "quaternion": IDENTITY},
                                {"object": "spreader", "position": position[i].tolist(),
                                 "quaternion": quaternion[i].tolist()}, mode=mode)
-            out[f"contact_{mode}"] = _latency(one, requests, 20)
+            out[f"contact_{mode}"] = latency(one, requests, 20)
         take = np.resize(np.arange(len(position)), batch_poses)
         columns = {"a_object": np.array("container40"), "a_position": np.zeros(3),
                    "a_quaternion": np.array(IDENTITY), "b_object": np.array("spreader"),

@@ -66,15 +66,37 @@ def _bce(model: StackedMLP, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
         logits, y, reduction="none").mean(dim=2)
 
 
-def label_matrix(rows: CompoundRows, labels: np.ndarray, members: np.ndarray) -> np.ndarray:
-    """(n, v) float32: 1 where pose n touches label v (``members``: the contacts of the
-    group)."""
-    y = np.zeros((len(rows), len(labels)), np.float32)
-    key = rows.part_a[members] * 65536 + rows.part_b[members]
+def label_matrix(n: int, labels: np.ndarray, pose: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """(n, v) float32: 1 where row ``pose[c]`` touches the label ``keys[c]`` ((c, 2) part
+    pairs), for every contact c whose part pair is one of ``labels`` (v, 2)."""
+    y = np.zeros((n, len(labels)), np.float32)
+    key = keys[:, 0] * 65536 + keys[:, 1]
     vocab = labels[:, 0] * 65536 + labels[:, 1]
     known = np.isin(key, vocab)
-    y[rows.pose[members][known], np.searchsorted(vocab, key[known])] = 1.0
+    y[pose[known], np.searchsorted(vocab, key[known])] = 1.0
     return y
+
+
+def fit_calibrated(x, y, train, val, config: ClassifierConfig, name: str, seed: int,
+                   desc: str) -> tuple[MLP, dict, dict, dict]:
+    """(MLP, its tensors, its spec entry, figures): one tanh network fitted to the labels ``y``
+    (n, v) of features ``x`` (n, 9) on rows ``train``, early-stopped and calibrated
+    (temperature, candidate floor) on rows ``val``."""
+    spec = MLPSpec("tanh", (x.shape[1], *config.hidden, y.shape[1]), GROUP_INPUTS,
+                   LABEL_OUTPUTS)
+    generator = torch.Generator().manual_seed(seed)
+    model = StackedMLP(spec, 1, generator)
+    model.set_normalisation(*input_statistics(x[train]))
+    record = fit(model, _bce, torch.as_tensor(x, dtype=torch.float32), torch.as_tensor(y),
+                 GroupRows([train]), GroupRows([val]), config.fit, generator, desc=desc,
+                 progress=False)
+    tensors = model.export(0, name)
+    mlp = MLP.from_tensors(name, tensors, spec)
+    temperature, candidate_min = calibrate(mlp.forward(x[val].astype(np.float32)), y[val])
+    figures = {"labels": y.shape[1], "epochs": record.epochs_run,
+               "seconds": round(record.seconds, 1), "temperature": temperature,
+               "candidate_min": candidate_min}
+    return mlp, tensors, {name: spec.to_dict()}, figures
 
 
 def calibrate(logits: np.ndarray, y: np.ndarray) -> tuple[float, float]:
@@ -95,30 +117,16 @@ def train_group(rows: CompoundRows, groups, g: int, config: ClassifierConfig, na
     group = groups[g]
     x = group_features(group, rows.position, rows.rotation)
     members = np.flatnonzero(group_of_pairs(groups, rows.part_a, rows.part_b) == g)
-    in_train = np.isin(rows.pose[members], rows.train)
-    labels = np.unique(np.c_[rows.part_a[members], rows.part_b[members]][in_train], axis=0)
-    labels = labels.reshape(-1, 2)
+    keys = np.c_[rows.part_a[members], rows.part_b[members]]
+    labels = np.unique(keys[np.isin(rows.pose[members], rows.train)], axis=0).reshape(-1, 2)
     lo, hi = widened_domain(x[rows.train])
     if len(labels) == 0:
         return GroupClassifier(group, labels, None, 1.0, 0.5, lo, hi), {}, {}, {"labels": 0}
-    y = label_matrix(rows, labels, members)
-    spec = MLPSpec("tanh", (x.shape[1], *config.hidden, len(labels)), GROUP_INPUTS,
-                   LABEL_OUTPUTS)
-    generator = torch.Generator().manual_seed(seed)
-    model = StackedMLP(spec, 1, generator)
-    model.set_normalisation(*input_statistics(x[rows.train]))
-    record = fit(model, _bce, torch.as_tensor(x, dtype=torch.float32), torch.as_tensor(y),
-                 GroupRows([rows.train]), GroupRows([rows.val]), config.fit, generator,
-                 desc=f"classifier {group.name}", progress=False)
-    tensors = model.export(0, name)
-    mlp = MLP.from_tensors(name, tensors, spec)
-    logits = mlp.forward(x[rows.val].astype(np.float32))
-    temperature, candidate_min = calibrate(logits, y[rows.val])
-    figures = {"labels": len(labels), "epochs": record.epochs_run,
-               "seconds": round(record.seconds, 1), "temperature": temperature,
-               "candidate_min": candidate_min}
-    return (GroupClassifier(group, labels, mlp, temperature, candidate_min, lo, hi), tensors,
-            {name: spec.to_dict()}, figures)
+    y = label_matrix(len(rows), labels, rows.pose[members], keys)
+    mlp, tensors, specs, figures = fit_calibrated(x, y, rows.train, rows.val, config, name,
+                                                  seed, f"classifier {group.name}")
+    return (GroupClassifier(group, labels, mlp, figures["temperature"],
+                            figures["candidate_min"], lo, hi), tensors, specs, figures)
 
 
 def pooled_maps(parts_a, parts_b, groups) -> list | None:
@@ -146,47 +154,20 @@ def train_pooled(rows: CompoundRows, groups, maps, config: ClassifierConfig, nam
         members = np.flatnonzero(owner == g)
         keys.append(np.c_[map_a[rows.part_a[members]], map_b[rows.part_b[members]]])
         poses.append(rows.pose[members] + g * n)
-    stacked = _stacked_rows(rows, k, np.concatenate(poses), np.concatenate(keys))
+    pose, keys = np.concatenate(poses), np.concatenate(keys)
+    shift = np.arange(k)[:, None] * n  # corner g's pose i is row g * n + i
+    train, val = (rows.train + shift).ravel(), (rows.val + shift).ravel()
     x = np.concatenate(xs)
-    labels = np.unique(stacked.keys[np.isin(stacked.pose, stacked.train)], axis=0).reshape(-1, 2)
-    y = np.zeros((k * n, len(labels)), np.float32)
-    vocab = labels[:, 0] * 65536 + labels[:, 1]
-    key = stacked.keys[:, 0] * 65536 + stacked.keys[:, 1]
-    known = np.isin(key, vocab)
-    y[stacked.pose[known], np.searchsorted(vocab, key[known])] = 1.0
-    spec = MLPSpec("tanh", (x.shape[1], *config.hidden, len(labels)), GROUP_INPUTS,
-                   LABEL_OUTPUTS)
-    generator = torch.Generator().manual_seed(seed)
-    model = StackedMLP(spec, 1, generator)
-    model.set_normalisation(*input_statistics(x[stacked.train]))
-    record = fit(model, _bce, torch.as_tensor(x, dtype=torch.float32), torch.as_tensor(y),
-                 GroupRows([stacked.train]), GroupRows([stacked.val]), config.fit, generator,
-                 desc="pooled classifier", progress=False)
-    tensors = model.export(0, name)
-    mlp = MLP.from_tensors(name, tensors, spec)
-    temperature, candidate_min = calibrate(mlp.forward(x[stacked.val].astype(np.float32)),
-                                           y[stacked.val])
-    lo, hi = widened_domain(x[stacked.train])
+    labels = np.unique(keys[np.isin(pose, train)], axis=0).reshape(-1, 2)
+    y = label_matrix(k * n, labels, pose, keys)
+    mlp, tensors, specs, figures = fit_calibrated(x, y, train, val, config, name, seed,
+                                                  "pooled classifier")
+    lo, hi = widened_domain(x[train])
     classifiers = [GroupClassifier(groups[g], np.c_[map_a[labels[:, 0]], map_b[labels[:, 1]]],
-                                   mlp, temperature, candidate_min, lo, hi, tuple(mirror))
+                                   mlp, figures["temperature"], figures["candidate_min"], lo,
+                                   hi, tuple(mirror))
                    for g, (mirror, map_a, map_b) in enumerate(maps)]
-    figures = {"labels": len(labels), "pooled_corners": k, "epochs": record.epochs_run,
-               "seconds": round(record.seconds, 1), "temperature": temperature,
-               "candidate_min": candidate_min}
-    return classifiers, tensors, {name: spec.to_dict()}, figures
-
-
-class _Stacked:
-    """Rows of k corners stacked: corner g's pose i is row g * n + i."""
-
-    def __init__(self, pose, keys, train, val):
-        self.pose, self.keys, self.train, self.val = pose, keys, train, val
-
-
-def _stacked_rows(rows: CompoundRows, k: int, pose, keys) -> _Stacked:
-    shift = (np.arange(k)[:, None] * len(rows))
-    return _Stacked(pose, keys, (rows.train[None, :] + shift).ravel(),
-                    (rows.val[None, :] + shift).ravel())
+    return classifiers, tensors, specs, figures | {"pooled_corners": k}
 
 
 def group_entry(clf: GroupClassifier, name: str | None) -> dict:

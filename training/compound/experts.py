@@ -19,9 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from impactnet.models.compound.parts import bounds
 from impactnet.models.learned.compound.experts import N_EXPERT_OUTPUTS, RegionCommittee
-from impactnet.models.learned.compound.groups import PartGroup, group_features
+from impactnet.models.learned.compound.groups import PartGroup, bounds_centre, group_features
 from impactnet.models.learned.mlp import MLP, MLPSpec
 from impactnet.models.metrics import angle_deg
 from impactnet.training.compound.classify import GROUP_INPUTS
@@ -60,9 +59,9 @@ class Tolerances:
 
 
 def _frame(parts_a, parts_b, i: int, j: int) -> PartGroup:
-    centre_a, centre_b = (tuple(float(v) for v in 0.5 * np.add(*bounds(p)))
-                          for p in (parts_a[i], parts_b[j]))
-    return PartGroup(f"{i}/{j}", (i,), (j,), centre_a, centre_b)
+    """Region (i, j) as a group of one part each: the committee members' input frame."""
+    return PartGroup(f"{i}/{j}", (i,), (j,), bounds_centre(parts_a, (i,)),
+                     bounds_centre(parts_b, (j,)))
 
 
 def _targets(rows: CompoundRows, members: np.ndarray, frame: PartGroup) -> np.ndarray:

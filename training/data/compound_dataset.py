@@ -24,6 +24,13 @@ def compound_pairs(scene: Scene) -> list:
     return [p for p in scene.pairs if scene.body(p.a).is_compound or scene.body(p.b).is_compound]
 
 
+def is_compound_scene(scene: Scene) -> bool:
+    """Whether every pair of ``scene`` has a compound body: the scene goes to the compound
+    learned path (``impactnet train`` / ``evaluate`` / ``sweep``); a scene mixing both kinds is
+    refused by the box commands."""
+    return bool(scene.pairs) and len(compound_pairs(scene)) == len(scene.pairs)
+
+
 def _as_parts(body):
     """A body's parts: its own, or a plain box as one box part."""
     from impactnet.models.compound.parts import BoxPart

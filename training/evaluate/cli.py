@@ -64,12 +64,13 @@ def run(args: argparse.Namespace) -> int:
 
     from impactnet.models.bundle.format import BundleError
     from impactnet.models.scenes import SceneError, load_scene
+    from impactnet.training.data.compound_dataset import is_compound_scene
     from impactnet.training.evaluate.run import evaluate, write
 
     try:
         config = _config(args)
         scene = load_scene(args.scene)
-        if _compound_scene(scene):
+        if is_compound_scene(scene):
             return _run_compound(scene, args)
         scene.require_box_pairs("impactnet evaluate")  # a scene mixing both is refused
         bundle = Path(args.bundle or f"models/bundles/{scene.name}")
@@ -86,12 +87,6 @@ def run(args: argparse.Namespace) -> int:
     if args.check and not results["goals_met"]:
         return EXIT_GOAL_MISSED
     return EXIT_OK
-
-
-def _compound_scene(scene) -> bool:
-    from impactnet.training.data.compound_dataset import compound_pairs
-
-    return bool(scene.pairs) and len(compound_pairs(scene)) == len(scene.pairs)
 
 
 def _run_compound(scene, args: argparse.Namespace) -> int:

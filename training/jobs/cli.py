@@ -88,13 +88,14 @@ def _job_config(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     """Train the scene named by ``args`` into a new store version; returns the exit status."""
     from impactnet.models.scenes import SceneError, load_scene
+    from impactnet.training.data.compound_dataset import is_compound_scene
     from impactnet.training.fit.pair import PairTrainConfig
     from impactnet.training.jobs.retrain import run_train_job
     from impactnet.training.jobs.scene import TrainConfig, quick_config
 
     try:
         scene = load_scene(args.scene)
-        if _compound_scene(scene):
+        if is_compound_scene(scene):
             return _run_compound(scene, args)
         scene.require_box_pairs("impactnet train")  # a scene mixing both is not supported
         if args.seed < 0:
@@ -120,13 +121,6 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     _print_summary(outcome.manifest, time.perf_counter() - start)
     return _report_outcome(outcome, out)
-
-
-def _compound_scene(scene) -> bool:
-    """Whether every pair of ``scene`` has a compound body (the compound training)."""
-    from impactnet.training.data.compound_dataset import compound_pairs
-
-    return bool(scene.pairs) and len(compound_pairs(scene)) == len(scene.pairs)
 
 
 def _run_compound(scene, args: argparse.Namespace) -> int:

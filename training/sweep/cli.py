@@ -125,10 +125,10 @@ def run(args: argparse.Namespace) -> int:
 def _check_scene(scene, args) -> None:
     """A scene of box pairs, or of compound pairs only (ValueError otherwise); a compound
     study's pick is not published (retrain it with `impactnet train`)."""
-    from impactnet.training.data.compound_dataset import compound_pairs
+    from impactnet.training.data.compound_dataset import is_compound_scene
 
-    compound = compound_pairs(scene)
-    if compound and len(compound) != len(scene.pairs):
+    compound = is_compound_scene(scene)
+    if not compound:
         scene.require_box_pairs("impactnet sweep")  # a mixed scene: refused, naming a pair
     if compound and args.out:
         raise ValueError("--out publishes box bundles only; train a compound scene's pick "

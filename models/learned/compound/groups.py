@@ -51,7 +51,8 @@ def _owner(name: str) -> str:
     return name.split("/")[0]
 
 
-def _centre(parts, members) -> tuple[float, float, float]:
+def bounds_centre(parts, members) -> tuple[float, float, float]:
+    """The centre (m, body frame) of the bounds of ``parts[k]`` for k in ``members``."""
     lows, highs = zip(*(bounds(parts[k]) for k in members))
     return tuple(float(v) for v in 0.5 * (np.min(lows, axis=0) + np.max(highs, axis=0)))
 
@@ -65,10 +66,10 @@ def part_groups(parts_a, parts_b) -> tuple[PartGroup, ...]:
         own_b = tuple(k for k, p in enumerate(parts_b)
                       if _owner(p.name) in {f"{g}_{corner}" for g in GROUP_PREFIX_B})
         if own_a and own_b:
-            groups.append(PartGroup(corner, own_a, own_b, _centre(parts_a, own_a),
-                                    _centre(parts_b, own_b)))
-    groups.append(PartGroup(BODY, (), (), _centre(parts_a, range(len(parts_a))),
-                            _centre(parts_b, range(len(parts_b)))))
+            groups.append(PartGroup(corner, own_a, own_b, bounds_centre(parts_a, own_a),
+                                    bounds_centre(parts_b, own_b)))
+    groups.append(PartGroup(BODY, (), (), bounds_centre(parts_a, range(len(parts_a))),
+                            bounds_centre(parts_b, range(len(parts_b)))))
     return tuple(groups)
 
 
