@@ -5,16 +5,20 @@ Entry ``compound_pairs["a/b"]``::
     {"decision": {"serve": "learned" | "exact-only", "figures": {...}, ...},
      "parts_a": [A's part names], "parts_b": [B's part names],
      "groups": [{"name", "parts_a", "parts_b", "centre_a", "centre_b", "labels": [[i, j], ...],
+                 "regions": [[label index, region code], ...] (label ascending),
                  "classifier": MLP name | null, "temperature", "candidate_min",
                  "domain_lo", "domain_hi", "mirror": [+-1, +-1, 1] (optional)}, ...],
-     "regions": {"i/j": {"expert": "committee" | "exact-part", "figures": {...},
-                         committee only: "members", "sure_min", "normal_spread_max_deg",
-                         "depth_spread_max_m", "contact_type_code", "feature_a",
-                         "feature_b"}}}
+     "regions": {"i/j/code": {"expert": "committee" | "exact-part", "figures": {...},
+                              "region": {"type", "face_a", "face_b"},
+                              committee only: "members", "sure_min", "normal_spread_max_deg",
+                              "depth_spread_max_m", "contact_type_code", "feature_a",
+                              "feature_b"}}}
 
-An exact-only pair needs no groups and no regions. The MLPs it names are declared in the
-manifest's ``mlps`` with the inputs :data:`GROUP_INPUTS`; a classifier gives one logit per label
-(:data:`LABEL_OUTPUTS`), a committee member :data:`N_EXPERT_OUTPUTS` values
+Region codes are :mod:`impactnet.models.learned.compound.regions`' (contact type x the two
+parts' bounding-box faces). An exact-only pair needs no groups and no regions. The MLPs it names
+are declared in the manifest's ``mlps`` with the inputs :data:`GROUP_INPUTS`; a classifier gives
+one logit per label, then one per region slot (:data:`LABEL_OUTPUTS`), a committee member
+:data:`N_EXPERT_OUTPUTS` values
 (:data:`PART_CONTACT_OUTPUTS`). Anything else raises
 :class:`impactnet.models.bundle.format.BundleError`.
 """
@@ -29,9 +33,10 @@ from impactnet.models.bundle.format import BundleError, decision_of, finite_numb
 from impactnet.models.learned.compound.classifier import GroupClassifier
 from impactnet.models.learned.compound.experts import N_EXPERT_OUTPUTS, RegionCommittee
 from impactnet.models.learned.compound.groups import N_GROUP_FEATURES, PartGroup
+from impactnet.models.learned.compound.regions import valid_region
 
 GROUP_INPUTS = "group-pose-v1"
-LABEL_OUTPUTS = "part-labels-v1"
+LABEL_OUTPUTS = "part-labels-regions-v1"
 PART_CONTACT_OUTPUTS = "part-contact-v1"
 EXPERT_COMMITTEE, EXPERT_EXACT_PART = "committee", "exact-part"
 
@@ -46,8 +51,8 @@ class CompoundPairModels:
     parts_a: tuple[str, ...]  # A's part names the models were trained on
     parts_b: tuple[str, ...]
     classifiers: tuple[GroupClassifier, ...] = ()  # one per group (empty: exact-only)
-    committees: dict = field(default_factory=dict)  # (i, j) -> RegionCommittee
-    regions: dict = field(default_factory=dict)  # "i/j" -> manifest entry (expert, figures)
+    committees: dict = field(default_factory=dict)  # (i, j, code) -> RegionCommittee
+    regions: dict = field(default_factory=dict)  # "i/j/code" -> manifest entry (expert, ...)
 
 
 def _finite(value, count: int, what: str) -> np.ndarray:
@@ -76,9 +81,10 @@ def _group(entry, mlps, n_a: int, n_b: int, what: str) -> GroupClassifier:
                       tuple(int(k) for k in entry.get("parts_b", ())),
                       tuple(_finite(entry.get("centre_a"), 3, f"{what}.centre_a")),
                       tuple(_finite(entry.get("centre_b"), 3, f"{what}.centre_b")))
+    slots = _region_slots(entry.get("regions", []), len(labels), what)
     mlp = None
     if len(labels):
-        mlp = _mlp(entry.get("classifier"), mlps, LABEL_OUTPUTS, len(labels),
+        mlp = _mlp(entry.get("classifier"), mlps, LABEL_OUTPUTS, len(labels) + len(slots),
                    f"{what}.classifier")
     temperature, candidate_min = (float(entry.get(k, math.nan))
                                   for k in ("temperature", "candidate_min"))
@@ -88,24 +94,40 @@ def _group(entry, mlps, n_a: int, n_b: int, what: str) -> GroupClassifier:
                                              f"{what}.mirror"))
     if any(abs(v) != 1.0 for v in mirror):
         raise BundleError(f"{what}.mirror: each entry +1 or -1")
-    return GroupClassifier(group, labels, mlp, temperature, candidate_min,
+    return GroupClassifier(group, labels, slots[:, 0], slots[:, 1], mlp, temperature,
+                           candidate_min,
                            _finite(entry.get("domain_lo"), N_GROUP_FEATURES,
                                    f"{what}.domain_lo"),
                            _finite(entry.get("domain_hi"), N_GROUP_FEATURES,
                                    f"{what}.domain_hi"), mirror)
 
 
+def _region_slots(value, n_labels: int, what: str) -> np.ndarray:
+    """(r, 2) int64 region slots (label, code) of a group: each label has at least one, in
+    ascending label order, and every code is a region."""
+    try:
+        slots = np.asarray(value, dtype=np.int64).reshape(-1, 2)
+    except (TypeError, ValueError):
+        raise BundleError(f"{what}.regions: a list of [label, region code] pairs") from None
+    if (np.any(np.diff(slots[:, 0]) < 0)
+            or not np.array_equal(np.unique(slots[:, 0]), np.arange(n_labels))):
+        raise BundleError(f"{what}.regions: every label needs region slots, in label order")
+    if not all(valid_region(c) for c in slots[:, 1]):
+        raise BundleError(f"{what}.regions: a code is not a contact region")
+    return slots
+
+
 def _committee(key: str, entry: dict, mlps, parts_a, parts_b, what: str,
                ) -> RegionCommittee:
-    i, j = (int(v) for v in key.split("/"))
-    if not (0 <= i < len(parts_a) and 0 <= j < len(parts_b)):
-        raise BundleError(f"{what}: part index out of range")
+    i, j, code = (int(v) for v in key.split("/"))
+    if not (0 <= i < len(parts_a) and 0 <= j < len(parts_b)) or not valid_region(code):
+        raise BundleError(f"{what}: part index or region code out of range")
     members = entry.get("members")
     if not isinstance(members, list) or not members:
         raise BundleError(f"{what}.members: a non-empty list of MLP names")
     frame = entry.get("frame") or {}
     return RegionCommittee(
-        i, j, PartGroup(key, (i,), (j,),
+        i, j, code, PartGroup(key, (i,), (j,),
                         tuple(_finite(frame.get("centre_a"), 3, f"{what}.frame")),
                         tuple(_finite(frame.get("centre_b"), 3, f"{what}.frame"))),
         tuple(_mlp(m, mlps, PART_CONTACT_OUTPUTS, N_EXPERT_OUTPUTS, f"{what}.members")
@@ -139,7 +161,7 @@ def compound_pair_models(key: str, entry, mlps: dict) -> CompoundPairModels:
         try:
             if block["expert"] == EXPERT_COMMITTEE:
                 c = _committee(region, block, mlps, parts_a, parts_b, where)
-                committees[(c.part_a, c.part_b)] = c
+                committees[(c.part_a, c.part_b, c.region)] = c
         except (KeyError, TypeError, ValueError) as exc:
             raise BundleError(f"{where}: {exc}") from None
     return CompoundPairModels(key, serve, decision, parts_a, parts_b, classifiers,

@@ -19,9 +19,9 @@ each, on the pose of B's part relative to A's part), once over all of a pair's r
 region of the pair (its contact type and the two features: finer than issue #21's coarse
 regions, an upper bound of what region experts can reach), once over its largest coarse
 region (contact type and the faces of the two parts' bounding boxes that the normal crosses,
-:func:`coarse_regions`: issue #21's granularity), and reports the p99 errors against
-the scene's tolerances (normal 1 degree, point ``Scene.point_tolerance_m``, depth 2 % of the
-depth range).
+:mod:`impactnet.models.learned.compound.regions`: issue #21's granularity), and reports the
+p99 errors against the scene's tolerances (normal 1 degree, point
+``Scene.point_tolerance_m``, depth 2 % of the depth range).
 
 Usage::
 
@@ -38,6 +38,7 @@ import numpy as np
 
 from impactnet.models.compound.parts import bounds
 from impactnet.models.geometry.rotations import quaternion_to_matrix
+from impactnet.models.learned.compound.regions import coarse_regions
 from impactnet.models.scenes import load_scene
 from impactnet.training.data.compound_data import compound_rows
 
@@ -244,7 +245,7 @@ def expert_figures(data: dict, pair: str, top: int, hidden: int, epochs: int,
         main_region = np.unique(region[rows], return_counts=True)
         groups["largest region"] = [rows[region[rows] == main_region[0][np.argmax(
             main_region[1])]]]
-        coarse = coarse_regions(data, pose, rotation)
+        coarse = coarse_regions(data["contact_type"], data["contact_normal"], rotation[pose])
         main_coarse = np.unique(coarse[rows], return_counts=True)
         groups["largest coarse region"] = [rows[coarse[rows] == main_coarse[0][np.argmax(
             main_coarse[1])]]]
@@ -270,23 +271,6 @@ def expert_figures(data: dict, pair: str, top: int, hidden: int, epochs: int,
                                            0.99) / point_tol)}
         out.append(entry)
     return out
-
-
-def box_face(direction: np.ndarray) -> np.ndarray:
-    """(k,) int in 0-5: the face of an axis-aligned box that ``direction`` (k, 3) leaves
-    through (+x, -x, +y, -y, +z, -z): the coarse face of a contact on a part."""
-    axis = np.argmax(np.abs(direction), axis=1)
-    return 2 * axis + (direction[np.arange(len(direction)), axis] < 0)
-
-
-def coarse_regions(data: dict, pose: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    """(c,) int: each part contact's coarse region, contact type x A's coarse face x B's
-    (the faces of the parts' bounding boxes that the normal leaves A and enters B through):
-    issue #21's region granularity, which does not grow with a part's detail."""
-    normal = data["contact_normal"]
-    face_a = box_face(normal)  # A at the origin, unrotated: the normal leaves A's part here
-    face_b = box_face(-np.einsum("kji,kj->ki", rotation[pose], normal))  # in B's frame
-    return data["contact_type"].astype(np.int64) * 36 + face_a * 6 + face_b
 
 
 def expert_report(entries: list[dict]) -> str:

@@ -8,7 +8,8 @@ measured too):
 * poses: the held-out first-contact rows of the training data (``<data>/<scene>.compound.npz``
   when it matches the scene), else ``rows`` freshly labelled ones;
 * accuracy of ``auto`` on those rows against the oracle's labels
-  (:func:`impactnet.training.compound.measure.held_out_figures`);
+  and the classifiers' coarse regions
+  (:func:`impactnet.training.compound.measure.score_chain`);
 * speed: oracle and ``auto`` (fallback rows included) at N = 1 (median of single calls) and at
   N = ``poses`` (the rows repeated), in one run, one thread;
 * the issue's rule applied to these figures, beside the decision the bundle records.
@@ -29,12 +30,12 @@ import numpy as np
 
 from impactnet.models.learned.compound import chain_of
 from impactnet.training.bench.timing import machine_info, median_per_call, median_repeated
-from impactnet.training.compound.experts import DEPTH_TOLERANCE_FRACTION, Tolerances
+from impactnet.training.compound.experts import pair_tolerances
 from impactnet.training.compound.measure import (
     TimingConfig,
-    held_out_figures,
     oracle_call,
     pair_decision,
+    score_chain,
     timings,
 )
 from impactnet.training.compound.rows import pair_columns, split_rows
@@ -90,15 +91,9 @@ def measure_pair(scene, pair, models, rows, source: str, config: MoeConfig) -> d
     if models is None or not models.classifiers:
         return out | {"measured": None}
     chain = chain_of(models, parts_a, parts_b)
-    edge = scene.smaller_shortest_edge(pair)
-    tol = Tolerances(DEPTH_TOLERANCE_FRACTION * edge * (scene.depth_fraction[1]
-                                                        - scene.depth_fraction[0]),
-                     scene.accuracy.normal_deg)
     position, quaternion = rows.position[rows.test], rows.quaternion[rows.test]
     identity = (np.zeros(3), np.array([1.0, 0, 0, 0]))
-    answer = chain.answer(*identity, position, quaternion)
-    figures = held_out_figures(answer, rows, rows.test, tol, lambda i, j: scene.point_tolerance_m(
-        pair, parts_a[i].name, parts_b[j].name))
+    figures = score_chain(chain, rows, rows.test, *pair_tolerances(scene, pair))
     speed = timings(oracle_call(parts_a, parts_b),
                     lambda p, q: chain.answer(*identity, p, q), position, quaternion,
                     config.timing)

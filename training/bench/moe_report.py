@@ -10,19 +10,20 @@ def _pct(value) -> str:
 
 
 def _pair_lines(pairs: list[dict]) -> list[str]:
-    lines = ["| pair | rows | exact sets (answered) | missed | fallback | p99 depth / tol | "
-             "p99 normal | p99 point / tol | oracle N = 1 | auto N = 1 | oracle batch | "
-             "auto batch | speed-up N = 1 / batch | rule says | bundle records |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| pair | rows | exact sets (answered) | missed | fallback | coarse regions right | "
+             "p99 depth / tol | p99 normal | p99 point / tol | oracle N = 1 | auto N = 1 | "
+             "oracle batch | auto batch | speed-up N = 1 / batch | rule says | bundle records |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in pairs:
         m = row.get("measured")
         if m is None:
-            lines.append(f"| {row['pair']} | {row['rows']} | no models | | | | | | | | | | | "
+            lines.append(f"| {row['pair']} | {row['rows']} | no models | | | | | | | | | | | | "
                          f"exact-only | {row['recorded']} |")
             continue
         lines.append(
             f"| {row['pair']} | {m['rows']:,} | {_pct(m['exact_set_answered'])} | "
             f"{_pct(m['missed_share'])} | {_pct(m['fallback_share'])} | "
+            f"{_pct(m['regions']['region_exact_share'])} | "
             f"{m['depth_p99_over_tolerance']:.2f} | {m['normal_p99_deg']:.3f}° | "
             f"{m['point_p99_over_tolerance']:.2f} | {m['oracle_n1_us']:,.0f} µs | "
             f"{m['auto_n1_us']:,.0f} µs | {m['oracle_batch_us_per_pose']:,.0f} µs | "

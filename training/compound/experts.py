@@ -1,7 +1,9 @@
 """The expert of each contact region of a compound pair, chosen by measurement (issue #21,
 step 2).
 
-A region is a part pair (:mod:`impactnet.models.learned.compound.experts`). For the
+A region is a part pair and a coarse region of its contact
+(:mod:`impactnet.models.learned.compound.experts`, :mod:`impactnet.models.learned.compound.
+regions`). For the
 :attr:`ExpertConfig.max_regions` regions with the most training contacts (at least
 :attr:`ExpertConfig.min_rows`), a committee of K tanh MLPs is fitted (one
 :class:`impactnet.training.fit.torch_mlp.StackedMLP` of K x regions networks, each on its
@@ -19,16 +21,16 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from impactnet.models.bundle.compound_format import GROUP_INPUTS, PART_CONTACT_OUTPUTS
 from impactnet.models.learned.compound.experts import N_EXPERT_OUTPUTS, RegionCommittee
 from impactnet.models.learned.compound.groups import PartGroup, bounds_centre, group_features
+from impactnet.models.learned.compound.regions import describe_region
 from impactnet.models.learned.mlp import MLP, MLPSpec
 from impactnet.models.metrics import angle_deg
-from impactnet.training.compound.classify import GROUP_INPUTS
 from impactnet.training.compound.rows import CompoundRows
 from impactnet.training.fit.loop import FitConfig, GroupRows, fit
 from impactnet.training.fit.torch_mlp import StackedMLP, column_statistics, input_statistics
 
-PART_CONTACT_OUTPUTS = "part-contact-v1"
 #: Share of the depth range that the depth tolerance is (issue #21: 2 %).
 DEPTH_TOLERANCE_FRACTION = 0.02
 #: A served committee answers only where its members agree to within this quantile of their
@@ -56,6 +58,19 @@ class Tolerances:
 
     depth_m: float  # depth error, metres
     normal_deg: float  # normal error, degrees
+
+
+def pair_tolerances(scene, pair) -> tuple[Tolerances, object]:
+    """(depth and normal tolerances, ``point_tol(i, j)``: the point tolerance (m) of a contact
+    of A's part i and B's part j) of a compound pair of ``scene``."""
+    parts_a, parts_b = scene.body(pair.a).parts, scene.body(pair.b).parts
+    depth_range = scene.smaller_shortest_edge(pair) * (scene.depth_fraction[1]
+                                                       - scene.depth_fraction[0])
+    tol = Tolerances(DEPTH_TOLERANCE_FRACTION * depth_range, scene.accuracy.normal_deg)
+
+    def point_tol(i: int, j: int) -> float:
+        return scene.point_tolerance_m(pair, parts_a[i].name, parts_b[j].name)
+    return tol, point_tol
 
 
 def _frame(parts_a, parts_b, i: int, j: int) -> PartGroup:
@@ -86,52 +101,59 @@ def region_errors(pred: np.ndarray, want: np.ndarray) -> dict:
 
 def fit_regions(rows: CompoundRows, parts_a, parts_b, point_tol, tol: Tolerances,
                 config: ExpertConfig, prefix: str, seed: int):
-    """(committees {(i, j): RegionCommittee}, region entries {"i/j": dict}, tensors, specs).
+    """(committees {(i, j, code): RegionCommittee}, region entries {"i/j/code": dict},
+    tensors, specs).
 
     ``point_tol(i, j)`` is the point tolerance (m) of a contact of A's part i and B's part j.
     """
-    keys, counts = np.unique(np.c_[rows.part_a, rows.part_b][np.isin(rows.pose, rows.train)],
-                             axis=0, return_counts=True)
+    keys, counts = np.unique(np.c_[rows.part_a, rows.part_b, rows.region][
+        np.isin(rows.pose, rows.train)], axis=0, return_counts=True)
     order = np.argsort(-counts, kind="stable")
     chosen = [tuple(int(v) for v in keys[k]) for k in order[:config.max_regions]
               if counts[k] >= config.min_rows]
-    entries = {f"{i}/{j}": {"expert": "exact-part", "train_contacts": int(c),
-                            "figures": {"reason": "too few rows for a committee"}}
-               for (i, j), c in zip(keys.tolist(), counts.tolist())}
+    entries = {f"{i}/{j}/{code}": {"expert": "exact-part", "train_contacts": int(c),
+                                   "region": describe_region(code),
+                                   "figures": {"reason": "too few rows for a committee"}}
+               for (i, j, code), c in zip(keys.tolist(), counts.tolist())}
     if not chosen:
         return {}, entries, {}, {}
     x, y, train, val, frames = _region_table(rows, parts_a, parts_b, chosen)
     model, spec = _fit_members(x, y, train, val, config, seed)
     committees, tensors, specs = {}, {}, {}
     k = config.members
-    for r, ((i, j), frame) in enumerate(zip(chosen, frames)):
-        names = [f"{prefix}.region_{i}_{j}.m{m}" for m in range(k)]
+    for r, ((i, j, code), frame) in enumerate(zip(chosen, frames)):
+        names = [f"{prefix}.region_{i}_{j}_{code}.m{m}" for m in range(k)]
         exported = [model.export(r * k + m, name) for m, name in enumerate(names)]
         mlps = tuple(MLP.from_tensors(n, t, spec) for n, t in zip(names, exported))
         outs = np.stack([mlp.forward(x[val[r]].astype(np.float32)) for mlp in mlps])
-        entry = entries[f"{i}/{j}"]
+        entry = entries[f"{i}/{j}/{code}"]
         entry["figures"] = _validation_figures(outs, y[val[r]], tol, point_tol(i, j))
         ratios = entry["figures"]["p99_over_tolerance"]
         if ratios is None or max(ratios.values()) > 1.0:
             continue  # the exact part-pair solver stays this region's expert
-        entry |= _committee_entry(rows, names, frame, outs)
+        entry |= _committee_entry(rows, names, frame, code, outs)
         specs |= {name: spec.to_dict() for name in names}
         for t in exported:
             tensors |= t
-        committees[(i, j)] = RegionCommittee(
-            i, j, frame, mlps, entry["sure_min"], entry["normal_spread_max_deg"],
+        committees[(i, j, code)] = RegionCommittee(
+            i, j, code, frame, mlps, entry["sure_min"], entry["normal_spread_max_deg"],
             entry["depth_spread_max_m"], entry["contact_type_code"], entry["feature_a"],
             entry["feature_b"])
     return committees, entries, tensors, specs
+
+
+def _members(rows: CompoundRows, i: int, j: int, code: int) -> np.ndarray:
+    """The part contacts of region (i, j, code)."""
+    return np.flatnonzero((rows.part_a == i) & (rows.part_b == j) & (rows.region == code))
 
 
 def _region_table(rows: CompoundRows, parts_a, parts_b, chosen):
     """(x (m, 9), y (m, 8), training rows per region, validation rows per region, frames):
     the contacts of the chosen regions, one block per region."""
     x_parts, y_parts, train, val, frames, offset = [], [], [], [], [], 0
-    for i, j in chosen:
+    for i, j, code in chosen:
         frame = _frame(parts_a, parts_b, i, j)
-        members = np.flatnonzero((rows.part_a == i) & (rows.part_b == j))
+        members = _members(rows, i, j, code)
         at = rows.pose[members]
         x_parts.append(group_features(frame, rows.position[at], rows.rotation[at]))
         y_parts.append(_targets(rows, members, frame))
@@ -173,7 +195,8 @@ def _validation_figures(outs: np.ndarray, want: np.ndarray, tol: Tolerances,
                                    "point": errors["point_m"] / point_tol}}
 
 
-def _committee_entry(rows: CompoundRows, names, frame: PartGroup, outs: np.ndarray) -> dict:
+def _committee_entry(rows: CompoundRows, names, frame: PartGroup, code: int,
+                     outs: np.ndarray) -> dict:
     """The manifest fields of a region that takes its committee: members, limits, type."""
     mean = outs.mean(axis=0)
     spread_deg = np.max([angle_deg(o[:, 1:4], mean[:, 1:4]) for o in outs], axis=0)
@@ -183,12 +206,12 @@ def _committee_entry(rows: CompoundRows, names, frame: PartGroup, outs: np.ndarr
             "normal_spread_max_deg": float(np.quantile(spread_deg, SPREAD_QUANTILE)),
             "depth_spread_max_m": float(np.quantile(spread_depth, SPREAD_QUANTILE)),
             "frame": {"centre_a": list(frame.centre_a), "centre_b": list(frame.centre_b)}
-            } | _most_frequent(rows, i, j)
+            } | _most_frequent(rows, i, j, code)
 
 
-def _most_frequent(rows: CompoundRows, i: int, j: int) -> dict:
+def _most_frequent(rows: CompoundRows, i: int, j: int, code: int) -> dict:
     """The most frequent (contact type, feature_a, feature_b) of a region's training rows."""
-    members = np.flatnonzero((rows.part_a == i) & (rows.part_b == j))
+    members = _members(rows, i, j, code)
     c = rows.contact
     triples, counts = np.unique(np.c_[c["type"][members], c["feature_a"][members],
                                       c["feature_b"][members]], axis=0, return_counts=True)

@@ -5,7 +5,8 @@
 oracle's labels: the set of touching part pairs (exact on the rows the chain answers, missed
 contacts over all rows), the fallback share, and p99 errors of the part contacts present in
 both (depth over the depth tolerance, normal in degrees, point over the two parts' point
-tolerance). :func:`timings` times oracle and chain at N = 1 (median of single calls) and at a
+tolerance). :func:`region_figures` scores the classifiers' coarse regions; :func:`score_chain`
+gives both. :func:`timings` times oracle and chain at N = 1 (median of single calls) and at a
 batch. :func:`pair_decision` applies the issue's rule.
 """
 from __future__ import annotations
@@ -84,6 +85,36 @@ def held_out_figures(answer, rows: CompoundRows, poses: np.ndarray, tol, point_t
             "depth_p99_over_tolerance": q(depth) / tol.depth_m,
             "normal_p99_deg": q(normal), "normal_p99_over_tolerance": q(normal) / tol.normal_deg,
             "point_p99_over_tolerance": q(point)}
+
+
+def region_figures(chain, rows: CompoundRows, poses: np.ndarray) -> dict:
+    """How well the classifiers of ``chain`` name the coarse regions of the oracle's part
+    contacts on ``poses`` (indices into ``rows``): the share of those contacts that are
+    candidates, and of these the share whose named region is the true one
+    (:mod:`impactnet.models.learned.compound.regions`)."""
+    local = np.full(len(rows), -1)
+    local[poses] = np.arange(len(poses))
+    mine = np.flatnonzero(local[rows.pose] >= 0)
+    truth = _keys(local[rows.pose[mine]], rows.part_a[mine], rows.part_b[mine])
+    pose, part_a, part_b, _, region, _ = chain.candidates(rows.position[poses],
+                                                          rows.rotation[poses])
+    named = _keys(pose, part_a, part_b)
+    order = np.argsort(named)
+    found = np.isin(truth, named)
+    at = order[np.searchsorted(named[order], truth[found])]
+    right = region[at] == rows.region[mine[found]]
+    return {"contacts": int(len(truth)),
+            "candidate_share": float(found.mean()) if len(truth) else 1.0,
+            "region_exact_share": float(right.mean()) if len(right) else 1.0}
+
+
+def score_chain(chain, rows: CompoundRows, poses: np.ndarray, tol, point_tol) -> dict:
+    """:func:`held_out_figures` of the chain's ``auto`` answer on ``poses`` (A at the origin),
+    with the classifiers' :func:`region_figures` under ``regions``."""
+    answer = chain.answer(np.zeros(3), np.array([1.0, 0, 0, 0]), rows.position[poses],
+                          rows.quaternion[poses])
+    return (held_out_figures(answer, rows, poses, tol, point_tol)
+            | {"regions": region_figures(chain, rows, poses)})
 
 
 def timings(oracle_fn, chain_fn, position, quaternion, config: TimingConfig) -> dict:

@@ -32,18 +32,13 @@ from impactnet.training.compound.classify import (
     train_group,
     train_pooled,
 )
-from impactnet.training.compound.experts import (
-    DEPTH_TOLERANCE_FRACTION,
-    ExpertConfig,
-    Tolerances,
-    fit_regions,
-)
+from impactnet.training.compound.experts import ExpertConfig, fit_regions, pair_tolerances
 from impactnet.training.compound.measure import (
     SPEEDUP_REQUIRED,
     TimingConfig,
-    held_out_figures,
     oracle_call,
     pair_decision,
+    score_chain,
     timings,
 )
 from impactnet.training.compound.rows import split_rows
@@ -71,13 +66,7 @@ def train_compound_pair(scene, pair, data: dict, config: CompoundTrainConfig,
     a, b = pair.a, pair.b
     parts_a, parts_b = scene.body(a).parts, scene.body(b).parts
     rows = split_rows(data, config.seed)
-    edge = scene.smaller_shortest_edge(pair)
-    depth_range = edge * (scene.depth_fraction[1] - scene.depth_fraction[0])
-    tol = Tolerances(DEPTH_TOLERANCE_FRACTION * depth_range, scene.accuracy.normal_deg)
-
-    def point_tol(i, j):
-        return scene.point_tolerance_m(pair, parts_a[i].name, parts_b[j].name)
-
+    tol, point_tol = pair_tolerances(scene, pair)
     prefix = f"{a}__{b}"
     committees, regions, tensors, specs = fit_regions(rows, parts_a, parts_b, point_tol, tol,
                                                       config.experts, prefix, config.seed)
@@ -100,8 +89,7 @@ def train_compound_pair(scene, pair, data: dict, config: CompoundTrainConfig,
         return chain.answer(np.zeros(3), np.array([1.0, 0, 0, 0]), position, quaternion)
 
     test_position, test_quaternion = rows.position[rows.test], rows.quaternion[rows.test]
-    figures = held_out_figures(auto(test_position, test_quaternion), rows, rows.test, tol,
-                               point_tol)
+    figures = score_chain(chain, rows, rows.test, tol, point_tol)
     speed = timings(oracle_call(parts_a, parts_b), auto, test_position, test_quaternion,
                     config.timing)
     serve, reasons = pair_decision(figures, speed)

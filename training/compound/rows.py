@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from impactnet.models.geometry.rotations import quaternion_to_matrix
+from impactnet.models.learned.compound.regions import coarse_regions
 
 #: Shares of the rows for training and validation; the rest is held out (test).
 SPLIT = (0.7, 0.15)
@@ -28,6 +29,7 @@ class CompoundRows:
     part_b: np.ndarray  # (c,) B's part
     contact: dict  # per part contact: point (c, 3), normal (c, 3), depth (c,), pressure (c,),
     # type (c,), feature_a (c,), feature_b (c,)
+    region: np.ndarray  # (c,) the coarse region code of each part contact
     train: np.ndarray  # pose indices for training
     val: np.ndarray  # pose indices for validation (calibration, expert choice)
     test: np.ndarray  # held-out pose indices (the figures and the decision)
@@ -47,11 +49,12 @@ def split_rows(data: dict, seed: int) -> CompoundRows:
                "depth": data["contact_depth"], "pressure": data["contact_pressure"],
                "type": data["contact_type"], "feature_a": data["contact_feature_a"],
                "feature_b": data["contact_feature_b"]}
-    return CompoundRows(np.asarray(data["position_b"], np.float64), quaternion,
-                        quaternion_to_matrix(quaternion),
-                        np.repeat(np.arange(n), np.diff(data["contact_offsets"])),
+    rotation = quaternion_to_matrix(quaternion)
+    pose = np.repeat(np.arange(n), np.diff(data["contact_offsets"]))
+    return CompoundRows(np.asarray(data["position_b"], np.float64), quaternion, rotation, pose,
                         data["contact_part_a"].astype(np.int64),
                         data["contact_part_b"].astype(np.int64), contact,
+                        coarse_regions(contact["type"], contact["normal"], rotation[pose]),
                         np.sort(order[:cut_train]), np.sort(order[cut_train:cut_val]),
                         np.sort(order[cut_val:]))
 

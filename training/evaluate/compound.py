@@ -4,7 +4,7 @@ and the figures behind it, and the learned path scored afresh.
 For every compound pair of the scene and the bundle's models (recorded decisions lifted, so an
 exact-only pair's models are scored too): ``rows`` first-contact poses are labelled with the
 oracle from a seed stream that training never uses (``seed + EVALUATE_SEED_OFFSET``), and
-``auto`` is scored on them (:func:`impactnet.training.compound.measure.held_out_figures`)
+``auto`` is scored on them (:func:`impactnet.training.compound.measure.score_chain`)
 against issue #21's goals: exact sets on >= 99.9 % of the answered rows, missed contacts on
 <= 0.01 % of all rows, fallback <= 10 %, p99 depth and point within tolerance. Beside them,
 the decision the bundle records (``serve``, the reasons, the speed-ups at N = 1 and at the
@@ -18,12 +18,13 @@ import time
 import numpy as np
 
 from impactnet.models.learned.compound import chain_of
-from impactnet.training.compound.experts import DEPTH_TOLERANCE_FRACTION, Tolerances
+from impactnet.models.learned.compound.regions import describe_region
+from impactnet.training.compound.experts import pair_tolerances
 from impactnet.training.compound.measure import (
     EXACT_SET_MIN,
     FALLBACK_MAX,
     MISSED_MAX,
-    held_out_figures,
+    score_chain,
 )
 from impactnet.training.compound.rows import split_rows
 
@@ -52,7 +53,8 @@ def score_pair(scene, pair, models, rows: int, seed: int) -> dict:
                "oracle_batch_us_per_pose", "auto_batch_us_per_pose", "best_case_n1_us",
                "best_case_batch_us_per_pose")},
            "groups": [{"name": c.group.name, "labels": len(c.labels),
-                       "temperature": c.temperature, "candidate_min": c.candidate_min}
+                       "region_slots": len(c.region_codes), "temperature": c.temperature,
+                       "candidate_min": c.candidate_min}
                       for c in models.classifiers],
            "regions": {"committee": sum(r.get("expert") == "committee"
                                         for r in models.regions.values()),
@@ -66,14 +68,8 @@ def score_pair(scene, pair, models, rows: int, seed: int) -> dict:
                          np.random.default_rng(seed + EVALUATE_SEED_OFFSET))
     labelled = split_rows(data, seed)
     every = np.arange(len(labelled))
-    chain = chain_of(models, parts_a, parts_b)
-    answer = chain.answer(np.zeros(3), np.array([1.0, 0, 0, 0]), labelled.position,
-                          labelled.quaternion)
-    tol = Tolerances(DEPTH_TOLERANCE_FRACTION * edge * (scene.depth_fraction[1]
-                                                        - scene.depth_fraction[0]),
-                     scene.accuracy.normal_deg)
-    figures = held_out_figures(answer, labelled, every, tol, lambda i, j: scene.point_tolerance_m(
-        pair, parts_a[i].name, parts_b[j].name))
+    figures = score_chain(chain_of(models, parts_a, parts_b), labelled, every,
+                          *pair_tolerances(scene, pair))
     return out | {"scored": figures, "goals": _goals(figures)}
 
 
@@ -83,8 +79,10 @@ def _best_regions(regions: dict, parts_a, parts_b, top: int = 3) -> list[dict]:
     for key, r in regions.items():
         ratios = (r.get("figures") or {}).get("p99_over_tolerance")
         if ratios:
-            i, j = (int(v) for v in key.split("/"))
-            measured.append({"region": f"{parts_a[i].name} / {parts_b[j].name}",
+            i, j, code = (int(v) for v in key.split("/"))
+            where = describe_region(code)
+            measured.append({"region": f"{parts_a[i].name} / {parts_b[j].name}, "
+                                       f"{where['type']} {where['face_a']}/{where['face_b']}",
                              "expert": r["expert"], "p99_over_tolerance": ratios,
                              "worst": max(ratios.values())})
     return sorted(measured, key=lambda r: r["worst"])[:top]

@@ -34,17 +34,19 @@ def markdown(result: dict) -> str:
               "<= 0.01 % of all rows, fallback <= 10 %, p99 errors within tolerance "
               "(/ tol <= 1).", "",
               "| pair | rows | answered by | exact sets (answered) | missed | fallback | "
-              "p99 depth / tol | p99 normal | p99 point / tol | goals |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+              "coarse regions right | p99 depth / tol | p99 normal | p99 point / tol | goals |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for p in result["pairs"]:
         f = p.get("scored")
         if f is None:
-            lines.append(f"| {p['pair']} | - | no models | | | | | | | |")
+            lines.append(f"| {p['pair']} | - | no models | | | | | | | | |")
             continue
         missed = [k for k, ok in p["goals"].items() if not ok]
         lines.append(f"| {p['pair']} | {f['rows']:,} | {f['answered_by']} | "
                      f"{_pct(f['exact_set_answered'])} | {_pct(f['missed_share'])} | "
-                     f"{_pct(f['fallback_share'])} | {f['depth_p99_over_tolerance']:.2f} | "
+                     f"{_pct(f['fallback_share'])} | "
+                     f"{_pct(f['regions']['region_exact_share'])} | "
+                     f"{f['depth_p99_over_tolerance']:.2f} | "
                      f"{f['normal_p99_deg']:.3f}° | {f['point_p99_over_tolerance']:.2f} | "
                      f"{'met' if not missed else 'missed: ' + ', '.join(missed)} |")
     lines += ["", "## Experts: the committees closest to the tolerance", "",

@@ -7,10 +7,11 @@ For N poses of one compound pair (body A, body B, both anywhere in the world):
    probabilities. A row outside any classifier's domain is *unsure*.
 2. With ``fallback`` (mode ``auto``), unsure rows go to the exact compound oracle
    (predictor ``oracle``). Without it (mode ``committee``) the chain answers them too.
-3. Every candidate label (probability >= the group's ``candidate_min``) goes to its region's
-   expert: the region's committee where training chose one and the classifier is sure
-   (probability >= its ``sure_min``) and the members agree, else the exact part-pair solver,
-   which also drops candidates that do not touch.
+3. Every candidate label (probability >= the group's ``candidate_min``) goes to the expert of
+   the coarse region the classifier names for it
+   (:mod:`impactnet.models.learned.compound.regions`): the region's committee where training
+   chose one and the classifier is sure (probability >= its ``sure_min``) and the members
+   agree, else the exact part-pair solver, which also drops candidates that do not touch.
 4. The part contacts of all sources, pose-major, and the body summary of DESIGN.md.
 
 Each row names its predictor: ``oracle`` (fallback), ``learned`` (at least one part contact
@@ -59,22 +60,25 @@ class CompoundChain:
     parts_a: tuple  # A's parts (the scene's)
     parts_b: tuple  # B's parts
     classifiers: tuple[GroupClassifier, ...]  # one per group
-    committees: dict  # (part_a, part_b) -> RegionCommittee, the regions that chose one
+    committees: dict  # (part_a, part_b, region code) -> RegionCommittee, the regions that
+    # chose one
 
     def candidates(self, position, rotation):
-        """(pose (k,), part_a (k,), part_b (k,), probability (k,), inside (n,) bool) of
-        B's poses in A's frame."""
+        """(pose (k,), part_a (k,), part_b (k,), probability (k,), region (k,), inside (n,)
+        bool) of B's poses in A's frame: every candidate label, its coarse region."""
         n = len(position)
         inside = np.ones(n, bool)
         pieces = []
         for clf in self.classifiers:
-            prob, ok = clf.probabilities(position, rotation)
+            prob, region_logits, ok = clf.probabilities(position, rotation)
             inside &= ok
             pose, label = np.nonzero(prob >= clf.candidate_min)
-            pieces.append((pose, clf.labels[label, 0], clf.labels[label, 1], prob[pose, label]))
-        pose, part_a, part_b, prob = (np.concatenate(c) for c in zip(*pieces))
+            region, _ = clf.regions(region_logits, pose, label)
+            pieces.append((pose, clf.labels[label, 0], clf.labels[label, 1], prob[pose, label],
+                           region))
+        pose, part_a, part_b, prob, region = (np.concatenate(c) for c in zip(*pieces))
         order = np.argsort(pose, kind="stable")
-        return pose[order], part_a[order], part_b[order], prob[order], inside
+        return pose[order], part_a[order], part_b[order], prob[order], region[order], inside
 
     def answer(self, position_a, quaternion_a, position_b, quaternion_b,
                fallback: bool = True) -> ChainAnswer:
@@ -102,14 +106,13 @@ class CompoundChain:
         n = len(p_a)
         rot_a = quaternion_to_matrix(q_a)
         position, rotation = relative_pose(p_a, rot_a, p_b, quaternion_to_matrix(q_b))
-        pose, part_a, part_b, prob, inside = self.candidates(position, rotation)
+        pose, part_a, part_b, prob, region, inside = self.candidates(position, rotation)
         unsure = ~inside if fallback else np.zeros(n, bool)
         keep = ~unsure[pose]
         pose, part_a, part_b, prob = pose[keep], part_a[keep], part_b[keep], prob[keep]
         pieces = []
-        by_committee = self._committee_mask(part_a, part_b, prob)
-        for (i, j), rows in by_committee.items():
-            committee = self.committees[(i, j)]
+        for key, rows in self._committee_mask(part_a, part_b, region[keep], prob).items():
+            committee = self.committees[key]
             at = pose[rows]
             depth, normal, point, pressure, usable = committee.predict(position[at],
                                                                        rotation[at])
@@ -133,13 +136,15 @@ class CompoundChain:
         parts = merged(pieces, n)
         return parts, np.where(unsure, ORACLE, np.where(learned, LEARNED, EXACT_PART))
 
-    def _committee_mask(self, part_a, part_b, prob) -> dict:
-        """(i, j) -> candidate rows that the region's committee is sure enough to answer."""
+    def _committee_mask(self, part_a, part_b, region, prob) -> dict:
+        """(i, j, region) -> candidate rows in that region that its committee is sure enough
+        to answer."""
         out = {}
-        for (i, j), committee in self.committees.items():
-            rows = np.flatnonzero((part_a == i) & (part_b == j) & (prob >= committee.sure_min))
+        for (i, j, code), committee in self.committees.items():
+            rows = np.flatnonzero((part_a == i) & (part_b == j) & (region == code)
+                                  & (prob >= committee.sure_min))
             if len(rows):
-                out[(i, j)] = rows
+                out[(i, j, code)] = rows
         return out
 
 

@@ -1,7 +1,8 @@
 """The served committee expert of one contact region of a compound pair (issue #21, step 2).
 
-A region is a part pair (A's part, B's part) that the classifier names: its contacts live on
-those two parts, whatever the body pose, and do not grow with the pair's other detail. Training
+A region is a part pair (A's part, B's part) and a coarse region of its contact (contact type
+and the two parts' bounding-box faces, :mod:`impactnet.models.learned.compound.regions`), as
+the classifier names them: it does not grow with the parts' detail. Training
 (:mod:`impactnet.training.compound.experts`) chooses, by measurement, a committee of K MLPs or
 the exact part-pair solver for each region; only the committees are served here (the exact
 part-pair solver is :func:`impactnet.models.compound.oracle.part_pair_contacts`).
@@ -33,6 +34,7 @@ class RegionCommittee:
 
     part_a: int  # A's part of the region
     part_b: int  # B's part of the region
+    region: int  # the coarse region code of the contact (regions.coarse_regions)
     frame: PartGroup  # the two parts as a group of one part each: the members' input frame
     members: tuple[MLP, ...]  # K MLPs, 9 -> N_EXPERT_OUTPUTS
     sure_min: float  # the classifier's probability from which the committee answers

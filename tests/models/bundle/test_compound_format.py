@@ -24,11 +24,18 @@ def _mlp_tensors(name: str, widths: tuple[int, ...], seed: int) -> dict:
     return out
 
 
+#: Region codes: face-face, A's +z face on B's -z face; edge-edge, A's +x on B's -y.
+TOP_ON_BOTTOM, EDGE_SIDE = 6 * 36 + 4 * 6 + 5, 3 * 36 + 0 * 6 + 3
+
+
 def compound_content():
-    """(manifest, tensors): one learned compound pair with 2 labels and one committee."""
-    tensors = _mlp_tensors("g.fl", (9, 8, 2), 0) | _mlp_tensors("r.m0", (9, 8, 8), 1)
+    """(manifest, tensors): one learned compound pair with 2 labels (3 region slots) and one
+    committee."""
+    tensors = _mlp_tensors("g.fl", (9, 8, 5), 0) | _mlp_tensors("r.m0", (9, 8, 8), 1)
     group = {"name": "fl", "parts_a": [0], "parts_b": [1], "centre_a": [0, 0, 0],
-             "centre_b": [0, 0, 0], "labels": [[0, 1], [1, 1]], "classifier": "g.fl",
+             "centre_b": [0, 0, 0], "labels": [[0, 1], [1, 1]],
+             "regions": [[0, TOP_ON_BOTTOM], [1, EDGE_SIDE], [1, TOP_ON_BOTTOM]],
+             "classifier": "g.fl",
              "temperature": 1.0, "candidate_min": 0.01, "domain_lo": [-1.0] * 9,
              "domain_hi": [1.0] * 9}
     region = {"expert": "committee", "members": ["r.m0"], "sure_min": 0.5,
@@ -37,14 +44,15 @@ def compound_content():
               "frame": {"centre_a": [0, 0, 0], "centre_b": [0, 0, 0]}, "figures": {}}
     manifest = {
         "version": "c-test", "scene": {"name": "t", "hash": "ab" * 32}, "pairs": {},
-        "mlps": {"g.fl": {"activation": "tanh", "layers": [9, 8, 2],
-                          "inputs": "group-pose-v1", "outputs": "part-labels-v1"},
+        "mlps": {"g.fl": {"activation": "tanh", "layers": [9, 8, 5],
+                          "inputs": "group-pose-v1", "outputs": "part-labels-regions-v1"},
                  "r.m0": {"activation": "tanh", "layers": [9, 8, 8],
                           "inputs": "group-pose-v1", "outputs": "part-contact-v1"}},
         "compound_pairs": {"x/y": {
             "decision": {"serve": "learned", "figures": {"speedup_n1": 3.0}},
             "parts_a": ["p0", "p1"], "parts_b": ["q0", "q1"], "groups": [group],
-            "regions": {"0/1": region, "1/1": {"expert": "exact-part", "figures": {}}}}}}
+            "regions": {f"0/1/{TOP_ON_BOTTOM}": region,
+                        f"1/1/{EDGE_SIDE}": {"expert": "exact-part", "figures": {}}}}}}
     return manifest, tensors
 
 
@@ -54,9 +62,11 @@ def test_a_learned_compound_pair_reads_back_with_its_classifier_and_committee(tm
     models = bundle.compound["x/y"]
     assert models.serve == "learned" and bundle.pairs == {}
     (clf,) = models.classifiers
-    assert clf.labels.tolist() == [[0, 1], [1, 1]] and clf.mlp.n_out == 2
-    assert set(models.committees) == {(0, 1)}
-    assert models.regions["1/1"]["expert"] == "exact-part"
+    assert clf.labels.tolist() == [[0, 1], [1, 1]] and clf.mlp.n_out == 5
+    assert clf.region_label.tolist() == [0, 1, 1]
+    assert clf.region_codes.tolist() == [TOP_ON_BOTTOM, EDGE_SIDE, TOP_ON_BOTTOM]
+    assert set(models.committees) == {(0, 1, TOP_ON_BOTTOM)}
+    assert models.regions[f"1/1/{EDGE_SIDE}"]["expert"] == "exact-part"
 
 
 def test_an_exact_only_compound_pair_needs_no_models(tmp_path):
@@ -84,9 +94,18 @@ def _broken(change):
     (lambda e, m: e["groups"][0].update(domain_lo=[0.0] * 8), "domain_lo"),
     (lambda e, m: e["groups"][0].update(mirror=[1.0, 0.5, 1.0]), "mirror"),
     (lambda e, m: m["mlps"]["g.fl"].update(inputs="pose-v1"), "group-pose-v1"),
-    (lambda e, m: e["regions"]["0/1"].update(expert="oracle"), "expert"),
-    (lambda e, m: e["regions"]["0/1"].pop("sure_min"), "sure_min"),
-    (lambda e, m: e["regions"].update({"0/9": e["regions"]["0/1"]}), "out of range"),
+    (lambda e, m: e["groups"][0]["regions"].pop(0), "every label needs region slots"),
+    (lambda e, m: e["groups"][0]["regions"].reverse(), "in label order"),
+    (lambda e, m: e["groups"][0]["regions"][0].__setitem__(1, 3), "not a contact region"),
+    (lambda e, m: e["groups"][0]["regions"].append([1, 250]), "must map"),  # 6 outputs needed
+    (lambda e, m: e["regions"][f"0/1/{TOP_ON_BOTTOM}"].update(expert="oracle"), "expert"),
+    (lambda e, m: e["regions"][f"0/1/{TOP_ON_BOTTOM}"].pop("sure_min"), "sure_min"),
+    (lambda e, m: e["regions"].update({f"0/9/{TOP_ON_BOTTOM}": e["regions"][
+        f"0/1/{TOP_ON_BOTTOM}"]}), "out of range"),
+    (lambda e, m: e["regions"].update({"0/1/4000": e["regions"][f"0/1/{TOP_ON_BOTTOM}"]}),
+     "out of range"),
+    (lambda e, m: e["regions"].update({"0/1": e["regions"][f"0/1/{TOP_ON_BOTTOM}"]}),
+     "regions\\['0/1'\\]"),  # a part pair without its coarse region: the old format
 ])
 def test_an_inconsistent_compound_entry_is_refused_naming_it(tmp_path, change, message):
     manifest, tensors = _broken(change)

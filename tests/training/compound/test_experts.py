@@ -1,7 +1,8 @@
-"""The expert choice per region: a committee is kept only where its p99 errors on validation
-rows meet the tolerances (here loose ones, so it is kept; tight ones, so it is not), its
-manifest entry carries what the served committee needs, and a chain with it answers the
-region's contacts as ``learned``."""
+"""The expert choice per region (a part pair and a coarse region of its contact): a committee
+is kept only where its p99 errors on validation rows meet the tolerances (here loose ones, so
+it is kept; tight ones, so it is not), its manifest entry carries what the served committee
+needs, its contacts are the region's, and a chain with it answers the region's contacts as
+``learned``."""
 import numpy as np
 
 from impactnet.models.learned.compound.chain import CompoundChain
@@ -29,12 +30,15 @@ def test_a_committee_within_the_tolerance_is_kept_with_what_serving_needs():
     rows, parts_a, parts_b, (committees, entries, tensors, specs) = _fit(
         Tolerances(depth_m=1.0, normal_deg=180.0), point_tol=10.0)
     assert len(committees) == 2
-    for (i, j), committee in committees.items():
-        entry = entries[f"{i}/{j}"]
+    for (i, j, code), committee in committees.items():
+        entry = entries[f"{i}/{j}/{code}"]
         assert entry["expert"] == "committee" and len(entry["members"]) == 2
         assert entry["normal_spread_max_deg"] >= 0 and entry["depth_spread_max_m"] >= 0
         assert set(entry["members"]) <= set(specs)
-        assert committee.contact_type_code == entry["contact_type_code"]
+        assert committee.region == code
+        assert committee.contact_type_code == entry["contact_type_code"] == code // 36
+        in_region = (rows.part_a == i) & (rows.part_b == j) & (rows.region == code)
+        assert entry["train_contacts"] == np.isin(rows.pose[in_region], rows.train).sum()
     assert {name.rsplit(".", 1)[0] for name in tensors} == set(specs)
     groups = part_groups(parts_a, parts_b)
     clf = train_group(rows, groups, len(groups) - 1, ClassifierConfig(hidden=(8,), fit=FIT),

@@ -1,7 +1,8 @@
 """Training of one compound pair (quick configuration, the cell guide pair): the classifiers
-are calibrated (no validation row misses a touching pair in the vocabulary), every region has
-a measured expert choice, the decision carries the issue's figures, and the bundle written
-from it reads back with a chain that answers like the oracle on the held-out rows it names."""
+are calibrated (no validation row misses a touching pair in the vocabulary) and name a coarse
+region for each label, well above chance after a few epochs, every region has a measured
+expert choice, the decision carries the issue's figures, and the bundle written from it reads
+back with a chain that answers like the oracle on the held-out rows it names."""
 import numpy as np
 
 from impactnet.models.bundle.format import bundle_in_memory, read_bundle, write_bundle
@@ -16,7 +17,7 @@ FIGURES = {"rows", "answered_by", "fallback_share", "exact_set_answered", "misse
            "missed_rows", "depth_p99_over_tolerance", "normal_p99_deg",
            "normal_p99_over_tolerance", "point_p99_over_tolerance", "batch_poses",
            "oracle_n1_us", "auto_n1_us", "oracle_batch_us_per_pose", "auto_batch_us_per_pose",
-           "speedup_n1", "speedup_batch"}
+           "speedup_n1", "speedup_batch", "regions"}
 
 
 def test_the_decision_records_every_figure_the_rule_uses():
@@ -26,6 +27,19 @@ def test_the_decision_records_every_figure_the_rule_uses():
     assert FIGURES <= set(decision["figures"])
     assert (decision["serve"] == "learned") == (decision["reasons"] == [])
     assert decision["rule"]["speedup_required"] == 2.0
+    named = decision["figures"]["regions"]
+    assert named["contacts"] > 0 and named["candidate_share"] > 0.9
+
+
+def test_each_label_has_region_slots_named_well_above_chance():
+    entry, _, _ = guide_entry()
+    for group in entry["groups"]:
+        if group["labels"]:
+            slots = np.array(group["regions"])
+            assert set(slots[:, 0]) == set(range(len(group["labels"])))
+            chance = len(group["labels"]) / len(slots)  # a uniform pick among a label's slots
+            assert group["figures"]["region_accuracy_validation"] > 2 * chance
+            assert entry["decision"]["figures"]["regions"]["region_exact_share"] > 2 * chance
 
 
 def test_every_group_is_calibrated_and_every_region_has_a_measured_expert():
