@@ -59,16 +59,3 @@ def test_the_learning_curve_trains_on_growing_prefixes_and_scores_the_same_rows(
     assert curve[0]["labels"] <= curve[1]["labels"]  # more rows see more part pairs
     for f in curve:
         assert 0.0 <= f["exact_set"] <= 1.0 and set(f["margins"]) == set(cp.MARGINS)
-
-
-def test_a_coarse_region_is_the_type_and_the_box_faces_the_normal_crosses():
-    import numpy as np
-
-    from impactnet.training.bench.classifier_probe import box_face, coarse_regions
-
-    assert box_face(np.array([[0.1, 0.2, 0.9], [0.0, -0.8, 0.1], [-1.0, 0.0, 0.0]])).tolist() \
-        == [4, 3, 1]
-    turn = np.array([[[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]])  # B yawed 90°
-    data = {"contact_normal": np.array([[1.0, 0.0, 0.0]]), "contact_type": np.array([6])}
-    # the normal leaves A through +x; on B (yawed) the touched face is +y: -R^T n = (0, 1, 0)
-    assert coarse_regions(data, np.array([0]), turn).tolist() == [6 * 36 + 0 * 6 + 2]

@@ -32,6 +32,13 @@ def test_a_direction_leaves_a_box_through_the_face_of_its_largest_component():
     assert box_face(directions).tolist() == [4, 5, 1, 2, 0]
 
 
+def test_on_a_yawed_body_b_the_face_is_taken_in_bs_own_frame():
+    turn = np.array([[[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]])  # B yawed 90°
+    # the normal leaves A through +x; on B (yawed) the touched face is +y: -R^T n = (0, 1, 0)
+    assert coarse_regions(np.array([6]), np.array([[1.0, 0.0, 0.0]]), turn).tolist() == [
+        6 * CODES_PER_TYPE + 0 * 6 + 2]
+
+
 def test_codes_name_a_type_and_two_faces_and_none_is_no_region():
     code = 6 * CODES_PER_TYPE + 4 * 6 + 5
     assert describe_region(code) == {"type": "face-face", "face_a": "+z", "face_b": "-z"}
