@@ -46,15 +46,25 @@ def _keys(pose, part_a, part_b) -> np.ndarray:
     return (np.asarray(pose, np.int64) << 32) + (np.asarray(part_a, np.int64) << 16) + part_b
 
 
+def _truth_keys(rows: CompoundRows, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(the part contacts of ``poses`` (c,), their keys (c,) with poses numbered as in
+    ``poses``)."""
+    mine, pose = rows.contacts_of(poses)
+    return mine, _keys(pose, rows.part_a[mine], rows.part_b[mine])
+
+
+def _where(keys: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """(w,) the index in ``keys`` (unsorted, unique) of each of ``wanted`` (all present)."""
+    order = np.argsort(keys)
+    return order[np.searchsorted(keys[order], wanted)]
+
+
 def held_out_figures(answer, rows: CompoundRows, poses: np.ndarray, tol, point_tol) -> dict:
     """Figures of the chain's ``answer`` on ``poses`` (indices into ``rows``, in answer order)
     against the oracle's labels; ``tol`` the depth / normal tolerances, ``point_tol(i, j)``
     the point tolerance (m)."""
     n = len(poses)
-    local = np.full(len(rows), -1)
-    local[poses] = np.arange(n)
-    mine = np.flatnonzero(local[rows.pose] >= 0)
-    truth = _keys(local[rows.pose[mine]], rows.part_a[mine], rows.part_b[mine])
+    mine, truth = _truth_keys(rows, poses)
     got_parts = answer.parts
     got = _keys(got_parts.pose, got_parts.part_a, got_parts.part_b)
     missing = ~np.isin(truth, got)
@@ -66,8 +76,7 @@ def held_out_figures(answer, rows: CompoundRows, poses: np.ndarray, tol, point_t
     missed[truth[missing] >> 32] = True
     answered = answer.predictor != ORACLE
     both_truth = np.flatnonzero(~missing)
-    order = np.argsort(got)  # got is pose-major, not key-sorted within a pose
-    both_got = order[np.searchsorted(got[order], truth[~missing])]
+    both_got = _where(got, truth[~missing])  # got is pose-major, not key-sorted in a pose
     c, rc = got_parts.contacts, rows.contact
     t_rows = mine[both_truth]
     depth = np.abs(c.depth[both_got] - rc["depth"][t_rows])
@@ -92,17 +101,12 @@ def region_figures(chain, rows: CompoundRows, poses: np.ndarray) -> dict:
     contacts on ``poses`` (indices into ``rows``): the share of those contacts that are
     candidates, and of these the share whose named region is the true one
     (:mod:`impactnet.models.learned.compound.regions`)."""
-    local = np.full(len(rows), -1)
-    local[poses] = np.arange(len(poses))
-    mine = np.flatnonzero(local[rows.pose] >= 0)
-    truth = _keys(local[rows.pose[mine]], rows.part_a[mine], rows.part_b[mine])
+    mine, truth = _truth_keys(rows, poses)
     pose, part_a, part_b, _, region, _ = chain.candidates(rows.position[poses],
                                                           rows.rotation[poses])
     named = _keys(pose, part_a, part_b)
-    order = np.argsort(named)
     found = np.isin(truth, named)
-    at = order[np.searchsorted(named[order], truth[found])]
-    right = region[at] == rows.region[mine[found]]
+    right = region[_where(named, truth[found])] == rows.region[mine[found]]
     return {"contacts": int(len(truth)),
             "candidate_share": float(found.mean()) if len(truth) else 1.0,
             "region_exact_share": float(right.mean()) if len(right) else 1.0}

@@ -150,10 +150,8 @@ def best_case_timings(parts_a, parts_b, rows, config: TimingConfig) -> dict:
     """Oracle against the exact part-pair solver on the true part pairs of the held-out poses
     (no classifier), timed as :func:`impactnet.training.compound.measure.timings` does."""
     test = rows.test
-    local = np.full(len(rows), -1)
-    local[test] = np.arange(len(test))
-    mine = np.flatnonzero(local[rows.pose] >= 0)
-    pose, part_a, part_b = local[rows.pose[mine]], rows.part_a[mine], rows.part_b[mine]
+    mine, pose = rows.contacts_of(test)
+    part_a, part_b = rows.part_a[mine], rows.part_b[mine]
     order = np.argsort(pose, kind="stable")
     pose, part_a, part_b = pose[order], part_a[order], part_b[order]
     start = np.searchsorted(pose, np.arange(len(test) + 1))

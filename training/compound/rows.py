@@ -37,6 +37,14 @@ class CompoundRows:
     def __len__(self) -> int:
         return len(self.position)
 
+    def contacts_of(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(contacts (c,): the part contacts of ``poses`` (indices into the rows), in row
+        order; their pose (c,) as an index into ``poses``)."""
+        local = np.full(len(self), -1)
+        local[poses] = np.arange(len(poses))
+        mine = np.flatnonzero(local[self.pose] >= 0)
+        return mine, local[self.pose[mine]]
+
 
 def split_rows(data: dict, seed: int) -> CompoundRows:
     """The :class:`CompoundRows` of a pair's labelled columns (``data``, as ``compound_rows``
