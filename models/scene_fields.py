@@ -45,9 +45,29 @@ def table(value, path: str, keys: tuple[set, set], source: str) -> Mapping:
 
 
 def number(value, path: str, source: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise SceneError(source, path, f"expected a finite number, got {value!r}")
-    return float(value)
+    """``value`` as a finite float; an integer too large for a float (10**309) is refused
+    like an infinity, and never echoed whole."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SceneError(source, path, f"expected a finite number, got {_shown(value)}")
+    try:
+        as_float = float(value)
+    except OverflowError:
+        as_float = math.inf
+    if not math.isfinite(as_float):
+        raise SceneError(source, path, f"expected a finite number, got {_shown(value)}")
+    return as_float
+
+
+#: Longest text of a bad value quoted in a message (characters).
+SHOWN_MAX_CHARS = 40
+
+
+def _shown(value) -> str:
+    """``repr(value)`` cut to :data:`SHOWN_MAX_CHARS` (a 10**309 integer has 310 digits)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
+        return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+    text = repr(value)
+    return text if len(text) <= SHOWN_MAX_CHARS else text[:SHOWN_MAX_CHARS] + "..."
 
 
 def positive(value, path: str, source: str) -> float:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from impactnet.models.work import checkpoint
 from impactnet.service.api.errors import UnsupportedPair
 from impactnet.service.codecs.pairs import paper_angles, predict_checked
 from impactnet.service.limits.budget import Lease
@@ -118,6 +119,7 @@ def solve_batch(predictor, pairs: PairInputs, include, lease: Lease) -> dict:
     out = {k: np.empty((n, *shape), dtype) for k, (dtype, shape, _) in _layout(include).items()}
     names, unsupported, covered = _Predictors(), [], []
     for start in range(0, n, CHUNK_ROWS):
+        checkpoint()  # the request's deadline and its client (impactnet.models.work)
         stop = min(n, start + CHUNK_ROWS)
         chunk = _chunk(pairs, start, stop) if (start, stop) != (0, n) else pairs
         try:

@@ -1,52 +1,177 @@
-"""Compound bodies through the HTTP API: the exact compound oracle on the rows of a request
-that name a compound scene object, and its answer as JSON or npz (docs/service.md, "Compound
-bodies").
+"""Compound bodies through the HTTP API: the work admitted first, then solved in bounded slices.
 
-Rows are grouped by their pair of bodies (object names, or raw box sizes) and each group is
-one vectorised call of :func:`impactnet.models.compound.compound_answer`. The answer is the
-body-level summary per row plus the ragged list of part contacts, pose-major, with
-``offsets`` (n + 1,) delimiting each row's contacts.
+For the rows of a request that name a compound body (a scene object made of parts, or inline
+``parts``):
+
+1. **Reach** (:func:`groups_of_pairs`): rows whose bodies' bounding spheres do not meet are
+   answered "no contact" at once, without any per-pair setup; the others are grouped by their
+   pair of bodies (object names, or raw box sizes).
+2. **Admission** (:func:`admit`): the broadphase counts every group's candidate part pairs, and
+   a pose or a request past its cap (``max_candidates_per_pose``,
+   ``max_candidates_per_request``) is 413 ``too_many_candidates`` before any contact is solved;
+   then the request reserves, in its memory lease, the candidates, one slice's working set and
+   the largest answer they can give (503 ``overloaded`` when there is no room now, 413 when
+   there never is).
+3. **Solve** (:func:`solve`): each group's poses in slices of at most :data:`SLICE_CANDIDATES`
+   candidates, with a checkpoint of the request's deadline and disconnect between slices; the
+   part-contact caps (``max_part_contacts_per_pose``, ``max_part_contacts_per_batch``) are
+   checked slice by slice (413 ``too_many_part_contacts`` as soon as one is passed).
 
 Modes (issue #21): a pair that the bundle serves learned (``chains``) is answered in mode
 ``auto`` by its chain (classifier, experts, the oracle for unsure rows) and in mode
-``committee`` by its chain without the oracle; ``exact`` and ``single`` (there is no single
-MLP of a compound pair), and every mode for a pair recorded exact-only or without models, are
-answered by the oracle. ``predictor`` names, per row, ``oracle``, ``exact-part`` or
-``learned``. A request that names the bodies in the other order than the scene's pair is
-answered by the oracle.
+``committee`` by its chain without the oracle; every other mode and pair by the oracle.
+``predictor`` names, per row, ``oracle``, ``exact-part`` or ``learned``.
+
+The answer (:class:`CompoundArrays`) is compact: part names and contact types as codes into
+small tables, turned into names only while encoding (:mod:`impactnet.service.codecs.
+compound_encode`).
 """
 from __future__ import annotations
 
-import io
+from dataclasses import dataclass
 
 import numpy as np
 
-from impactnet.models.compound import CompoundAnswer, compound_answer
-from impactnet.models.contacts import CONTACT_TYPES
-from impactnet.service.api.errors import ServiceError
+from impactnet.models.compound.body_table import TransientParts, body_table
+from impactnet.models.compound.candidates import (
+    Candidates,
+    TooManyCandidates,
+    answer_of_poses,
+    candidate_pairs,
+    pose_slices,
+)
+from impactnet.models.compound.parts import BoxPart
+from impactnet.models.geometry.rotations import quaternion_to_matrix
+from impactnet.models.work import checkpoint
+from impactnet.service.api.errors import LimitRefused
+from impactnet.service.compound_arrays import CompoundArrays, Pieces
+from impactnet.service.limits.budget import Lease
 from impactnet.service.predictors import PairInputs
 from impactnet.service.scene import SceneView
 
-#: The predictor named in compound answers.
+#: The predictor named in compound answers of the oracle.
 ORACLE = "oracle"
-#: Per-contact columns of the ragged answer (name in the answer, dtype).
-CONTACT_COLUMNS = ("part_a", "part_b", "point", "normal", "depth", "contact_type",
-                   "feature_a", "feature_b", "pressure")
+#: Candidates per slice of the narrowphase: ~20-60 ms of work between two checkpoints at
+#: ~10-30 us a candidate, and a working set of ~40 MB (:data:`SLICE_WORKING_BYTES`).
+SLICE_CANDIDATES = 2048
+#: Upper bound of one slice's working set, bytes (tracemalloc peaks of 2,048-candidate slices:
+#: spreader landings, stacked containers at detail 2, the cell guide; docs/service.md).
+SLICE_WORKING_BYTES = 48 << 20
+#: Bytes per candidate part pair held from admission to the end (pose, part_a, part_b int64).
+CANDIDATE_BYTES = 24
+#: Bytes per part contact of the answer: the compact arrays (~84) twice (the slices' pieces
+#: and their merge), and one member turned into names while encoding (~92).
+CONTACT_BYTES = 2 * 84 + 96
+#: Bytes per row of the answer's summary columns.
+SUMMARY_ROW_BYTES = 96
+#: Part pairs the broadphase tests in the time of one box-pair solve (~1 us): 1,000 poses of
+#: two 71-part containers (5 M part pairs) take ~0.3 s.
+PART_PAIRS_PER_UNIT = 16
+#: Slack (x the two radii) of the reach test: far above round-off, far below any gap.
+REACH_SLACK_REL = 1e-9
+
+
+@dataclass(frozen=True)
+class CompoundCaps:
+    """The caps of a compound request (settings of the same names)."""
+
+    candidates_per_pose: int  # max_candidates_per_pose
+    candidates_per_request: int  # max_candidates_per_request
+    contacts_per_pose: int  # max_part_contacts_per_pose
+    contacts_per_request: int  # max_part_contacts_per_batch
+
+    @classmethod
+    def of(cls, settings) -> CompoundCaps:
+        return cls(settings.max_candidates_per_pose, settings.max_candidates_per_request,
+                   settings.max_part_contacts_per_pose, settings.max_part_contacts_per_batch)
+
+
+@dataclass
+class Group:
+    """The rows of a request with one pair of bodies, and their candidates once admitted."""
+
+    rows: np.ndarray  # (k,) int64, the request's rows
+    parts_a: tuple  # A's parts (body frame)
+    parts_b: tuple  # B's parts
+    poses: tuple  # position_a (k, 3), quaternion_a (k, 4), position_b, quaternion_b
+    chain: object | None = None  # the pair's learned chain in this mode, else None: oracle
+    candidates: Candidates | None = None  # set by admit()
+
+
+@dataclass(frozen=True)
+class Plan:
+    """An admitted compound request: its groups with their candidates."""
+
+    n: int  # rows of the request
+    groups: list[Group]
+    work: float  # admitted work in box-pair solves (candidates weighted by hull sizes)
 
 
 def names_compound(pairs: PairInputs, scene: SceneView) -> bool:
-    """Whether a row of ``pairs`` (parsed against ``scene.with_compound()``) names a compound
+    """Whether a row of ``pairs`` (parsed against ``scene.with_compound``) names a compound
     object."""
     box_count = len(scene.object_names)
     return bool((pairs.object_a >= box_count).any() or (pairs.object_b >= box_count).any())
 
 
-def _groups(pairs: PairInputs, n: int):
-    """(key rows, inverse (n,)) of the distinct (object_a, object_b, size_a, size_b) rows."""
-    columns = [np.broadcast_to(c, (n,) + c.shape[1:]).reshape(n, -1) for c in
-               (pairs.object_a, pairs.object_b, pairs.size_a, pairs.size_b)]
-    return np.unique(np.concatenate([c.astype(np.float64) for c in columns], axis=1), axis=0,
-                     return_inverse=True)
+def _column(values, n: int) -> np.ndarray:
+    return np.broadcast_to(values, (n,) + values.shape[1:])
+
+
+def _sphere(parts) -> tuple[np.ndarray, float]:
+    """(centre (3,) in the body frame, radius) of a sphere around every part."""
+    table = body_table(parts)
+    lo = (table.centre - 0.5 * table.size).min(axis=0)
+    hi = (table.centre + 0.5 * table.size).max(axis=0)
+    return 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+
+
+def _spheres(objects, sizes, position, quaternion, scene: SceneView):
+    """World centres (n, 3) and radii (n,) of the bodies of one side of n rows."""
+    n = len(objects)
+    radius = 0.5 * np.linalg.norm(sizes, axis=1)
+    local = np.zeros((n, 3))
+    box_count = len(scene.object_names)
+    for index in np.unique(objects[objects >= box_count]):
+        rows = objects == index
+        local[rows], radius[rows] = _sphere(scene.parts_of(int(index), None))
+    moved = np.einsum("nij,nj->ni", quaternion_to_matrix(quaternion), local)
+    return position + moved, radius
+
+
+def reachable(pairs: PairInputs, scene: SceneView) -> np.ndarray:
+    """(n,) bool: the rows whose bodies' bounding spheres meet (the others cannot touch)."""
+    n = len(pairs)
+    sides = [_spheres(_column(o, n), _column(s, n), _column(p, n), _column(q, n), scene)
+             for o, s, p, q in ((pairs.object_a, pairs.size_a, pairs.position_a,
+                                 pairs.quaternion_a),
+                                (pairs.object_b, pairs.size_b, pairs.position_b,
+                                 pairs.quaternion_b))]
+    (centre_a, radius_a), (centre_b, radius_b) = sides
+    reach = (radius_a + radius_b) * (1.0 + REACH_SLACK_REL)
+    return np.linalg.norm(centre_b - centre_a, axis=1) <= reach
+
+
+def groups_of_pairs(pairs: PairInputs, scene: SceneView, chains: dict | None,
+                    mode: str) -> list[Group]:
+    """The groups of the rows that can touch (module docstring, step 1)."""
+    n = len(pairs)
+    rows = np.flatnonzero(reachable(pairs, scene))
+    if not len(rows):
+        return []
+    columns = [_column(c, n)[rows].reshape(len(rows), -1).astype(np.float64)
+               for c in (pairs.object_a, pairs.object_b, pairs.size_a, pairs.size_b)]
+    keys, inverse = np.unique(np.concatenate(columns, axis=1), axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    groups = []
+    for g, key in enumerate(keys):
+        take = rows[inverse == g]
+        poses = tuple(_column(c, n)[take] for c in (pairs.position_a, pairs.quaternion_a,
+                                                    pairs.position_b, pairs.quaternion_b))
+        groups.append(Group(take, scene.parts_of(int(key[0]), key[2:5]),
+                            scene.parts_of(int(key[1]), key[5:8]), poses,
+                            _chain_for(key, scene, chains or {}, mode)))
+    return groups
 
 
 def _chain_for(key, scene: SceneView, chains: dict, mode: str):
@@ -60,147 +185,86 @@ def _chain_for(key, scene: SceneView, chains: dict, mode: str):
     return chains.get(f"{names[a]}/{names[b]}")
 
 
-def _answer(pairs_of_group, chain, mode: str):
-    """(CompoundAnswer, predictor (k,)) of one group: its chain's or the oracle's."""
-    parts_a, take_a, q_a, parts_b, take_b, q_b = pairs_of_group
-    if chain is None:
-        answer = compound_answer(parts_a, take_a, q_a, parts_b, take_b, q_b)
-        return answer, np.full(len(answer), ORACLE)
-    got = chain.answer(take_a, q_a, take_b, q_b, fallback=mode == "auto")
-    return (CompoundAnswer(got.parts, got.summary, tuple(p.name for p in parts_a),
-                           tuple(p.name for p in parts_b)), got.predictor)
+def box_parts(size) -> tuple:
+    """A raw box size as a body of one part (built for this request)."""
+    return TransientParts((BoxPart("box", tuple(float(v) for v in size)),))
 
 
-def solve_compound(pairs: PairInputs, scene: SceneView, max_per_pose: int,
-                   max_per_batch: int, chains: dict | None = None,
-                   mode: str = "exact") -> dict:
-    """The summary columns (n rows) and the ragged part contacts of every row.
-
-    Raises
-    ------
-    ServiceError
-        413 ``too_many_part_contacts`` naming the cap (per pose or per batch) that is exceeded.
-    """
-    n = len(pairs)
-    keys, inverse = _groups(pairs, n)
-    inverse = inverse.reshape(-1)
-    out = _empty(n)
-    out["predictor"] = np.full(n, ORACLE, dtype="<U10")
-    pieces, total = [], 0
-    for g, key in enumerate(keys):
-        rows = np.flatnonzero(inverse == g)
-        parts_a = scene.parts_of(int(key[0]), key[2:5])
-        parts_b = scene.parts_of(int(key[1]), key[5:8])
-        take = [np.broadcast_to(c, (n,) + c.shape[1:])[rows] for c in
-                (pairs.position_a, pairs.quaternion_a, pairs.position_b, pairs.quaternion_b)]
-        answer, out["predictor"][rows] = _answer(
-            (parts_a, take[0], take[1], parts_b, take[2], take[3]),
-            _chain_for(key, scene, chains or {}, mode), mode)
-        total += int(answer.parts.offsets[-1])
-        pieces.append(_fill(out, answer, rows, total, max_per_pose, max_per_batch))
-    return out | _ragged(pieces, n)
+def count_cost(groups: list[Group]) -> float:
+    """The cost of :func:`admit`'s count in box-pair solves: every pose's part pairs, of which
+    the broadphase tests :data:`PART_PAIRS_PER_UNIT` in the time of one box-pair solve."""
+    pairs = sum(len(g.rows) * len(g.parts_a) * len(g.parts_b) for g in groups)
+    return pairs / PART_PAIRS_PER_UNIT
 
 
-def _fill(out: dict, answer, rows, total: int, max_per_pose: int, max_per_batch: int) -> dict:
-    """Put a group's summary into ``out`` at ``rows``; its contact columns (caps checked)."""
-    _check_caps(np.diff(answer.parts.offsets), total, rows, max_per_pose, max_per_batch)
-    s = answer.summary
-    out["colliding"][rows], out["point"][rows], out["normal"][rows] = (s.colliding, s.point,
-                                                                      s.normal)
-    out["depth"][rows], out["cluster_size"][rows] = s.depth, s.cluster_size
-    return _contact_columns(answer, rows)
+def _too_many(exc: TooManyCandidates, group: Group, caps: CompoundCaps, total: int):
+    if exc.pose is not None:
+        row = int(group.rows[exc.pose])
+        return LimitRefused("too_many_candidates", "pairs", f"row {row} has {exc.count} "
+                            f"candidate part pairs, more than max_candidates_per_pose "
+                            f"({exc.cap})", "max_candidates_per_pose")
+    return LimitRefused("too_many_candidates", "pairs", f"the request has more than "
+                        f"{caps.candidates_per_request} candidate part pairs "
+                        f"(max_candidates_per_request); send fewer rows per request",
+                        "max_candidates_per_request")
 
 
-def _empty(n: int) -> dict:
-    return {"colliding": np.zeros(n, bool), "point": np.zeros((n, 3)),
-            "normal": np.zeros((n, 3)), "depth": np.zeros(n),
-            "cluster_size": np.zeros(n, np.int64)}
+def admit(groups: list[Group], n: int, caps: CompoundCaps, lease: Lease | None) -> Plan:
+    """Count every group's candidates under the caps, then reserve the request's memory
+    (module docstring, step 2)."""
+    total, work = 0, 0.0
+    for group in groups:
+        try:
+            group.candidates = candidate_pairs(
+                group.parts_a, group.poses[0], group.poses[1], group.parts_b, group.poses[2],
+                group.poses[3], caps.candidates_per_pose, caps.candidates_per_request - total)
+        except TooManyCandidates as exc:
+            raise _too_many(exc, group, caps, total) from None
+        total += group.candidates.total
+        work += group.candidates.work + len(group.rows)
+    if lease is not None:
+        contacts = min(total, caps.contacts_per_request)
+        lease.reserve(n * SUMMARY_ROW_BYTES + total * CANDIDATE_BYTES + SLICE_WORKING_BYTES
+                      * bool(total) + contacts * CONTACT_BYTES,
+                      f"solving {n} compound rows ({total} candidate part pairs)")
+    return Plan(n, groups, work)
 
 
-def solve_parts(parts_a, position_a, quaternion_a, parts_b, position_b, quaternion_b,
-                max_per_pose: int) -> dict:
-    """The answer arrays (one row) of one pair of part tuples, as :func:`solve_compound`'s."""
-    answer = compound_answer(parts_a, position_a, quaternion_a, parts_b, position_b,
-                             quaternion_b)
-    out = _empty(1)
-    rows = np.zeros(1, np.int64)
-    piece = _fill(out, answer, rows, int(answer.parts.offsets[-1]), max_per_pose,
-                  max_per_pose)
-    return out | _ragged([piece], 1) | {"predictor": np.full(1, ORACLE)}
-
-
-def _check_caps(counts, total, rows, max_per_pose, max_per_batch) -> None:
-    if counts.size and counts.max() > max_per_pose:
+def _check_contacts(counts: np.ndarray, rows: np.ndarray, total: int, caps: CompoundCaps):
+    if counts.size and counts.max() > caps.contacts_per_pose:
         row = int(rows[int(np.argmax(counts))])
-        raise ServiceError(413, "too_many_part_contacts",
-                           f"row {row} has {int(counts.max())} part contacts, more than "
-                           f"max_part_contacts_per_pose ({max_per_pose})")
-    if total > max_per_batch:
-        raise ServiceError(413, "too_many_part_contacts",
-                           f"the batch has more than max_part_contacts_per_batch "
-                           f"({max_per_batch}) part contacts; send fewer rows")
+        raise LimitRefused("too_many_part_contacts", "pairs", f"row {row} has "
+                           f"{int(counts.max())} part contacts, more than "
+                           f"max_part_contacts_per_pose ({caps.contacts_per_pose})",
+                           "max_part_contacts_per_pose")
+    if total > caps.contacts_per_request:
+        raise LimitRefused("too_many_part_contacts", "pairs", f"the request has more than "
+                           f"{caps.contacts_per_request} part contacts "
+                           "(max_part_contacts_per_batch); send fewer rows per request",
+                           "max_part_contacts_per_batch")
 
 
-def _contact_columns(answer, rows) -> dict:
-    c = answer.parts.contacts
-    return {"row": rows[answer.parts.pose],
-            "part_a": np.asarray(answer.names_a)[answer.parts.part_a],
-            "part_b": np.asarray(answer.names_b)[answer.parts.part_b],
-            "point": c.point, "normal": c.normal, "depth": c.depth,
-            "contact_type": np.asarray(CONTACT_TYPES)[c.contact_type_code],
-            "feature_a": c.feature_a.astype(np.int64), "feature_b": c.feature_b.astype(np.int64),
-            "pressure": c.pressure}
+def _slice_answer(group: Group, start: int, stop: int, mode: str):
+    """(CompoundAnswer-like (parts, summary), predictor names (stop-start,)) of one slice."""
+    p_a, q_a, p_b, q_b = (c[start:stop] for c in group.poses)
+    if group.chain is None:
+        answer = answer_of_poses(group.parts_a, *(c for c in group.poses[:2]), group.parts_b,
+                                 *(c for c in group.poses[2:]), group.candidates, start, stop)
+        return answer.parts, answer.summary, np.full(stop - start, ORACLE)
+    got = group.chain.answer(p_a, q_a, p_b, q_b, fallback=mode == "auto")
+    return got.parts, got.summary, got.predictor
 
 
-def member(name: str) -> str:
-    """The answer array (and npz member) of a per-contact column: ``contact_<name>``, and
-    ``contact_type`` as itself."""
-    return name if name.startswith("contact_") else f"contact_{name}"
-
-
-def _ragged(pieces: list[dict], n: int) -> dict:
-    """The groups' contacts merged pose-major (rows in request order, then as found)."""
-    row = np.concatenate([p["row"] for p in pieces])
-    order = np.argsort(row, kind="stable")
-    merged = {member(name): np.concatenate([p[name] for p in pieces])[order]
-              for name in CONTACT_COLUMNS}
-    offsets = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(row, minlength=n), out=offsets[1:])
-    return merged | {"contact_offsets": offsets}
-
-
-def row_json(arrays: dict, i: int) -> dict:
-    """Row i as the single-pair answer's fields (summary and its ``contacts`` list)."""
-    rows = range(int(arrays["contact_offsets"][i]), int(arrays["contact_offsets"][i + 1]))
-    contacts = [{name: _plain(arrays[member(name)][r]) for name in CONTACT_COLUMNS}
-                for r in rows]
-    return {"colliding": bool(arrays["colliding"][i]), "point": arrays["point"][i].tolist(),
-            "normal": arrays["normal"][i].tolist(), "depth": float(arrays["depth"][i]),
-            "cluster_size": int(arrays["cluster_size"][i]),
-            "predictor": str(arrays["predictor"][i]),
-            "contacts": contacts}
-
-
-def _plain(value):
-    return value.tolist() if isinstance(value, np.ndarray | np.generic) else value
-
-
-def batch_json(arrays: dict, mode: str, model_version: str) -> dict:
-    """The columnar batch answer: summary columns of N and the ragged ``contacts`` object."""
-    summary = ("predictor", "colliding", "point", "normal", "depth", "cluster_size")
-    return {"n": len(arrays["depth"]), "mode": mode, "model_version": model_version,
-            **{name: arrays[name].tolist() for name in summary},
-            "contacts": {"offsets": arrays["contact_offsets"].tolist(),
-                         **{name: arrays[member(name)].tolist()
-                            for name in CONTACT_COLUMNS}}}
-
-
-def batch_npz(arrays: dict, mode: str, model_version: str) -> bytes:
-    """The batch answer as an npz archive: the same columns, contacts as ``contact_*``."""
-    buffer = io.BytesIO()
-    members = {name: np.asarray(value) for name, value in arrays.items()}
-    members["predictor"] = members["predictor"].astype("<U10")
-    for name in ("contact_part_a", "contact_part_b", "contact_type"):
-        members[name] = members[name].astype(str)
-    np.savez(buffer, mode=np.asarray(mode), model_version=np.asarray(model_version), **members)
-    return buffer.getvalue()
+def solve(plan: Plan, caps: CompoundCaps, mode: str) -> CompoundArrays:
+    """The answer of an admitted request (module docstring, step 3)."""
+    pieces = Pieces(plan.n)
+    for group in plan.groups:
+        names = pieces.names_of(group.parts_a, group.parts_b)
+        for start, stop in pose_slices(group.candidates.counts, SLICE_CANDIDATES):
+            checkpoint()
+            parts, summary, predictor = _slice_answer(group, start, stop, mode)
+            rows = group.rows[start:stop]
+            _check_contacts(np.diff(parts.offsets), rows, pieces.contacts + len(parts.pose),
+                            caps)
+            pieces.add(rows, parts, summary, predictor, names)
+    return pieces.merged()

@@ -40,8 +40,15 @@ class Metrics:
                                "/v1 requests being served now.", registry=r)
         self.rejected = Counter(
             "impactnet_http_rejected", "Requests refused before or while being computed, by "
-            "reason (body_too_large, body_timeout, overloaded, memory_budget).", ["reason"],
-            registry=r)
+            "reason (body_too_large, body_timeout, overloaded, memory_budget, and the limit "
+            "that refused a request's work or geometry: max_candidates_per_pose, "
+            "max_part_contacts_per_batch, max_frustum_sides, ...).", ["reason"], registry=r)
+        self.deadline_exceeded = Counter(
+            "impactnet_deadline_exceeded", "Requests whose work was stopped at "
+            "compute_deadline_s (answered 504).", registry=r)
+        self.cancelled = Counter(
+            "impactnet_cancelled_work", "Requests whose work was stopped before its end, by "
+            "reason (client_disconnected).", ["reason"], registry=r)
         self.budget_limit = Gauge("impactnet_memory_budget_bytes",
                                   "The process's memory budget (settings).", registry=r)
         self.budget_used = Gauge("impactnet_memory_budget_used_bytes",

@@ -119,3 +119,22 @@ def warm_up(state: ServingState) -> None:
                 break
             if predictor.mode == "exact" and not bool(result.colliding[0]):
                 raise RuntimeError("warm-up: the exact solver misses a contact")
+    warm_up_compound()
+
+
+def warm_up_compound() -> None:
+    """The compound paths' first-call costs, paid before ready: SciPy's hull, trimesh and
+    the oracle on a box against a small convex part (an inline request imports nothing)."""
+    import trimesh  # noqa: F401 - imported for its first-call cost (inline meshes)
+
+    from impactnet.models.compound import compound_answer
+    from impactnet.models.compound.body_table import TransientParts
+    from impactnet.models.compound.parts import BoxPart, ConvexPart
+    from impactnet.models.compound.shapes import frustum_points
+
+    cone = TransientParts((ConvexPart("cone", tuple(map(tuple, frustum_points(0.5, 8, 0.3)))),))
+    box = TransientParts((BoxPart("box", (1.0, 1.0, 1.0)),))
+    answer = compound_answer(cone, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], box,
+                             [0.0, 0.0, 0.79], [1.0, 0.0, 0.0, 0.0])
+    if not bool(answer.summary.colliding[0]):
+        raise RuntimeError("warm-up: the compound oracle misses a contact")

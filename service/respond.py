@@ -26,10 +26,13 @@ def header(scope: Scope, name: bytes) -> bytes | None:
 
 
 async def send_error(send: Send, status: int, error: str, message: str,
-                     headers: list[tuple[bytes, bytes]] | None = None) -> None:
-    """Answer with the JSON error envelope (:func:`impactnet.service.api.errors.error_body`)."""
+                     headers: list[tuple[bytes, bytes]] | None = None,
+                     more_body: bool = False) -> None:
+    """Answer with the JSON error envelope (:func:`impactnet.service.api.errors.error_body`);
+    ``more_body``: the answer is complete for the client (its Content-Length) but not yet for
+    the server, which may still read the request (the caller ends it with an empty body)."""
     body = error_body(status, error, message)
     await send({"type": "http.response.start", "status": status,
                 "headers": _JSON_HEADERS + [(b"content-length", str(len(body)).encode())]
                 + (headers or [])})
-    await send({"type": "http.response.body", "body": body})
+    await send({"type": "http.response.body", "body": body, "more_body": more_body})

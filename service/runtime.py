@@ -11,11 +11,12 @@ import logging
 import re
 import socket
 import time
-from concurrent.futures import ThreadPoolExecutor
 from importlib.metadata import PackageNotFoundError, version
 
 from impactnet.service.limits.budget import MemoryBudget
+from impactnet.service.limits.lanes import Lanes
 from impactnet.service.limits.saturation import Saturation
+from impactnet.service.limits.trim import Trimmer
 from impactnet.service.limits.uploads import Uploads
 from impactnet.service.metrics import Metrics
 from impactnet.service.predictors import ServingState, warm_up
@@ -68,9 +69,11 @@ class Runtime:
         self.metrics.bind_budget(self.budget)
         # bodies being read (impactnet.service.limits.body)
         self.uploads = Uploads(settings.body_timeout_s)
-        # Batches are solved here, max_batch_workers at a time (threads start on demand).
-        self.batch_pool = ThreadPoolExecutor(settings.max_batch_workers,
-                                             thread_name_prefix="impactnet-batch")
+        # Work off the event loop: the small lane (one thread) and the large one
+        # (max_batch_workers threads), chosen by each step's admitted cost (limits.lanes).
+        self.lanes = Lanes(settings.max_batch_workers, settings.small_work_max)
+        # freed memory given back after large requests (limits.trim)
+        self.trimmer = Trimmer()
 
     def _memory_refused(self) -> None:
         self.metrics.rejected.labels("memory_budget").inc()

@@ -70,13 +70,15 @@ class SceneView:
 
     def parts_of(self, index: int, size) -> tuple:
         """The parts of object ``index`` of :meth:`with_compound` (a box object or a raw
-        ``size``: one box part)."""
+        ``size``: one box part, built for this request, so kept out of the solver's shared
+        caches)."""
+        from impactnet.models.compound.body_table import TransientParts
         from impactnet.models.compound.parts import BoxPart
 
         box_count = len(self.object_names)
         if index >= box_count:
             return self.compound_parts[self.compound_names[index - box_count]]
-        return (BoxPart("box", tuple(float(v) for v in size)),)
+        return TransientParts((BoxPart("box", tuple(float(v) for v in size)),))
 
     def describe(self) -> dict:
         return {

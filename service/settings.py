@@ -63,12 +63,47 @@ class Settings(BaseSettings):
     memory_wait_s: float = Field(2.0, ge=0)
     # Largest number of pairs in one batch request (413 beyond it).
     max_batch_pairs: int = Field(100_000, ge=1)
-    # Compound bodies: most part contacts one pose may answer with (413 beyond it). Two 40 ft
-    # containers at detail 2 stacked castings on castings give 40 (10 ring pieces x 4).
+    # Compound bodies: most part contacts one pose may answer with (413 beyond it, checked
+    # as the contacts are found, chunk by chunk). Two 40 ft containers at detail 2 stacked
+    # castings on castings give 40 (10 ring pieces x 4).
     max_part_contacts_per_pose: int = Field(256, ge=1)
-    # Compound bodies: most part contacts one request may answer with (413 beyond it); each
-    # costs ~150 bytes of answer in npz, ~400 in JSON.
-    max_part_contacts_per_batch: int = Field(2_000_000, ge=1)
+    # Compound bodies: most part contacts one request may answer with (413 beyond it, checked
+    # chunk by chunk); each holds ~100 bytes while solved and ~400 of JSON text as it streams.
+    max_part_contacts_per_batch: int = Field(1_000_000, ge=1)
+    # Compound bodies: most candidate part pairs (the broadphase's survivors, counted before
+    # any contact is solved) of one pose (413 beyond it). The shipped scenes' worst training
+    # poses have 67 (stacking at detail 2, pushed up to 2 cm; docs/service.md, "Bounded
+    # cost"); two 40 ft containers at detail 2 pushed wholly into each other have 237.
+    max_candidates_per_pose: int = Field(512, ge=1)
+    # Compound bodies: most candidate part pairs of one request (413 beyond it, before any
+    # contact is solved): 10,000 spreader landings have ~750,000.
+    max_candidates_per_request: int = Field(1_000_000, ge=1)
+    # Wall-clock seconds a request may compute, from the arrival of its whole body to its
+    # answer (queueing for a worker included). Past it the work stops at its next chunk
+    # (within a second) and the answer is 504 `deadline_exceeded`, which a front must never
+    # replay on another replica (docker/nginx.conf: proxy_read_timeout is longer).
+    compute_deadline_s: float = Field(30.0, gt=0)
+    # Work whose admitted cost is at most this many box-pair solves (a batch's rows, a compound
+    # request's candidate part pairs weighted by their hulls' sizes) runs in the small-work
+    # lane, its own worker thread, so that it never waits behind large batches.
+    small_work_max: int = Field(4096, ge=1)
+    # Inline compound bodies (`parts` in a request): most parts in one body.
+    max_inline_parts: int = Field(128, ge=1)
+    # Inline parts: most sides of a `frustum` (the shipped twistlock heads have 8-256).
+    max_frustum_sides: int = Field(256, ge=3)
+    # Inline parts: most points of a `points` part (the hull of the points).
+    max_hull_points: int = Field(1024, ge=4)
+    # Inline parts: most corners of a `prism`'s section.
+    max_section_points: int = Field(256, ge=3)
+    # Inline parts: most bytes of one mesh's data once decoded from base64 (a single pair's
+    # body is at most `max_pair_body_bytes`).
+    max_mesh_bytes: int = Field(48 * KiB, ge=1024)
+    # Inline parts: most vertices and triangles of one mesh as loaded (before its hull).
+    max_mesh_vertices: int = Field(4096, ge=4)
+    max_mesh_faces: int = Field(8192, ge=4)
+    # Inline parts: most corners of all the parts of one request together (a frustum of n
+    # sides has 2n, a box 8): bounds the hulls built per request (~0.1-0.2 s at the limit).
+    max_inline_vertices: int = Field(4096, ge=8)
     # Largest number of /v1 requests being computed at once (from the moment their body has
     # arrived to the start of their answer); more get 503 with Retry-After. Requests still
     # uploading their body, probes (/healthz, /readyz) and /metrics are not counted.

@@ -4,20 +4,33 @@ A body's parts are a tuple of frozen dataclasses; hashing it on every call (71 p
 their vertex tuples at detail 2) would cost as much as a single-pose query. The cache is keyed
 on the tuple's identity instead (scenes and generators hand out the same tuple each time) and
 holds the tuple itself, so an identity is never reused while its entry lives.
+
+Parts built for one request (a client's inline parts, a raw box size) are marked
+:class:`TransientParts`: their tables, hulls and hull stacks stay out of the shared caches
+(a client could otherwise fill them with its own large hulls) and live in a cache of
+:data:`TRANSIENT_BODIES` entries of their own, long enough for one request.
 """
 from __future__ import annotations
 
 from collections import OrderedDict
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from impactnet.models.compound.broadphase import groups_of
-from impactnet.models.compound.hull import Hull, hull_of
+from impactnet.models.compound.hull import Hull, build_hull, hull_of
+from impactnet.models.compound.hull_stack import SizeClasses, size_classes
 from impactnet.models.compound.parts import BoxPart, bounds
 
 #: Bodies kept in the cache (least recently used dropped first): a scene has a handful.
 CACHED_BODIES = 64
+#: Transient bodies kept (the two of the request being solved).
+TRANSIENT_BODIES = 2
+
+
+class TransientParts(tuple):
+    """The parts of a body built for one request (module docstring)."""
 
 
 @dataclass(frozen=True, eq=False)  # hashed by identity: a key of the broadphase's caches
@@ -32,9 +45,24 @@ class BodyTable:
     members: tuple  # members of each group, arrays of part indices
     hulls: tuple[Hull, ...]  # the hull of every part (box parts keep the box's ids)
     partners: tuple  # CSR (start (P + 1,), part): the other parts whose bounds overlap each
+    transient: bool = False  # built for one request: nothing derived from it is cached
+
+    @cached_property
+    def group_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(centres (G, 3), sizes (G, 3)) of the union of each group's part bounds."""
+        lo = np.array([(self.centre[m] - 0.5 * self.size[m]).min(axis=0) for m in self.members])
+        hi = np.array([(self.centre[m] + 0.5 * self.size[m]).max(axis=0) for m in self.members])
+        return 0.5 * (lo + hi), hi - lo
+
+    @cached_property
+    def classes(self) -> SizeClasses:
+        """The parts' hulls by size class (:func:`~impactnet.models.compound.hull_stack.
+        size_classes`; a transient body's outside the shared cache)."""
+        return size_classes(self.hulls, cached=not self.transient)
 
 
 _CACHE: OrderedDict[int, BodyTable] = OrderedDict()
+_TRANSIENT: OrderedDict[int, BodyTable] = OrderedDict()
 
 
 def _partners(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -48,18 +76,22 @@ def _partners(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def body_table(parts) -> BodyTable:
     """The (cached) :class:`BodyTable` of a tuple of validated parts."""
-    table = _CACHE.get(id(parts))
+    transient = isinstance(parts, TransientParts)
+    cache, size = (_TRANSIENT, TRANSIENT_BODIES) if transient else (_CACHE, CACHED_BODIES)
+    table = cache.get(id(parts))
     if table is not None and table.parts is parts:
-        _CACHE.move_to_end(id(parts))
+        cache.move_to_end(id(parts))
         return table
-    parts = tuple(parts)
+    if not transient:
+        parts = tuple(parts)
     lo = np.array([bounds(p)[0] for p in parts])
     hi = np.array([bounds(p)[1] for p in parts])
     group, members = groups_of(parts)
+    hull = build_hull if transient else hull_of
     table = BodyTable(parts, 0.5 * (lo + hi), hi - lo,
                       np.array([isinstance(p, BoxPart) for p in parts]), group, tuple(members),
-                      tuple(hull_of(p) for p in parts), _partners(lo, hi))
-    _CACHE[id(parts)] = table
-    while len(_CACHE) > CACHED_BODIES:
-        _CACHE.popitem(last=False)
+                      tuple(hull(p) for p in parts), _partners(lo, hi), transient)
+    cache[id(parts)] = table
+    while len(cache) > size:
+        cache.popitem(last=False)
     return table

@@ -19,8 +19,11 @@ from functools import lru_cache
 
 import numpy as np
 
-#: Poses per level-1 chunk: its (chunk, G_a, G_b, 3) arrays stay a few tens of MB.
-BROADPHASE_CHUNK = 8192
+#: Box pairs (poses x A's boxes x B's boxes) per level-1 chunk: its (chunk, G_a, G_b, 3)
+#: arrays stay a few tens of MB whatever the bodies' part counts.
+LEVEL_ONE_ITEMS = 1 << 19
+#: Member part pairs per level-2 step: its per-pair arrays (~300 bytes each) stay ~40 MB.
+LEVEL_TWO_ITEMS = 1 << 17
 #: Added to |R| (dimensionless): a pair touching within round-off is never culled (the
 #: narrowphase decides it).
 ABS_ROTATION_EPS = 1e-12
@@ -37,15 +40,6 @@ def groups_of(parts) -> tuple[np.ndarray, list[np.ndarray]]:
     return group, [np.flatnonzero(group == g) for g in range(len(order))]
 
 
-@lru_cache(maxsize=64)
-def _group_bounds(table) -> tuple[np.ndarray, np.ndarray]:
-    """(centres (G, 3), sizes (G, 3)) of the union of each group's part bounds."""
-    centre, size, members = table.centre, table.size, table.members
-    lo = np.array([(centre[m] - 0.5 * size[m]).min(axis=0) for m in members])
-    hi = np.array([(centre[m] + 0.5 * size[m]).max(axis=0) for m in members])
-    return 0.5 * (lo + hi), hi - lo
-
-
 def _overlap(t, rel, absolute, half_a, half_b):
     """Whether boxes of half extents ``half_a`` (.., 3) at the origin and ``half_b`` (.., 3) at
     ``t`` (.., 3) rotated by ``rel`` (.., 3, 3) overlap on A's and B's face axes."""
@@ -60,8 +54,9 @@ def _level_one(centre_a, size_a, centre_b, size_b, offset, rot_a, rot_b):
     """(pose, box_a, box_b) of the box pairs not separated, pose-major; all pairs at once."""
     found = []
     half_a, half_b = 0.5 * size_a, 0.5 * size_b
-    for start in range(0, len(offset), BROADPHASE_CHUNK):
-        stop = min(len(offset), start + BROADPHASE_CHUNK)
+    chunk = max(1, LEVEL_ONE_ITEMS // (len(size_a) * len(size_b)))
+    for start in range(0, len(offset), chunk):
+        stop = min(len(offset), start + chunk)
         ra_t, rb = rot_a[start:stop].transpose(0, 2, 1), rot_b[start:stop]
         rel = ra_t @ rb  # R = R_A^T R_B, (m, 3, 3)
         absolute = np.abs(rel) + ABS_ROTATION_EPS
@@ -79,8 +74,16 @@ def _level_one(centre_a, size_a, centre_b, size_b, offset, rot_a, rot_b):
     return tuple(np.concatenate(parts) for parts in zip(*found))
 
 
-@lru_cache(maxsize=64)
 def _member_pairs(table_a, table_b):
+    """:func:`_cached_member_pairs`, outside the cache where a body is transient
+    (:class:`~impactnet.models.compound.body_table.TransientParts`)."""
+    if table_a.transient or table_b.transient:
+        return _cached_member_pairs.__wrapped__(table_a, table_b)
+    return _cached_member_pairs(table_a, table_b)
+
+
+@lru_cache(maxsize=64)
+def _cached_member_pairs(table_a, table_b):
     """CSR table of the member part pairs of every group pair: (start (G_a * G_b + 1,),
     part_a, part_b)."""
     members_a, members_b = table_a.members, table_b.members
@@ -108,19 +111,46 @@ def broadphase(table_a, table_b, offset, rot_a, rot_b):
     members_a, members_b = table_a.members, table_b.members
     if len(members_a) == len(table_a.parts) and len(members_b) == len(table_b.parts):
         return _level_one(*bounds_a, *bounds_b, offset, rot_a, rot_b)
-    pose, ga, gb = _level_one(*_group_bounds(table_a), *_group_bounds(table_b), offset, rot_a,
+    pose, ga, gb = _level_one(*table_a.group_bounds, *table_b.group_bounds, offset, rot_a,
                               rot_b)
     start, pair_a, pair_b = _member_pairs(table_a, table_b)
     key = ga * len(members_b) + gb
     count = start[key + 1] - start[key]
+    # per pose once: R = R_A^T R_B and B's origin in A's frame
+    ra_t = rot_a.transpose(0, 2, 1)
+    rel_pose = ra_t @ rot_b
+    t_pose = (ra_t @ offset[:, :, None])[:, :, 0]
+    found = []
+    for lo, hi in _item_slices(count, LEVEL_TWO_ITEMS):
+        found.append(_level_two(pose[lo:hi], start[key[lo:hi]], count[lo:hi],
+                                (pair_a, pair_b), rel_pose, t_pose, bounds_a, bounds_b))
+    if not found:
+        return pose[:0], pose[:0], pose[:0]
+    return tuple(np.concatenate(parts) for parts in zip(*found))
+
+
+def _item_slices(count: np.ndarray, budget: int) -> list[tuple[int, int]]:
+    """Consecutive slices of the level-1 survivors, each with at most ``budget`` member pairs
+    (a survivor with more is a slice of its own)."""
+    ends = np.cumsum(count)
+    slices, lo = [], 0
+    while lo < len(count):
+        base = ends[lo - 1] if lo else 0
+        hi = max(int(np.searchsorted(ends, base + budget, side="right")), lo + 1)
+        slices.append((lo, hi))
+        lo = hi
+    return slices
+
+
+def _level_two(pose, first_pair, count, pairs, rel_pose, t_pose, bounds_a, bounds_b):
+    """(pose, part_a, part_b) of the member pairs of some level-1 survivors (pose (k,), their
+    first member pair and count) whose bounds are not separated."""
+    pair_a, pair_b = pairs
     item_pose = np.repeat(pose, count)
-    first = np.repeat(start[key] - np.cumsum(count) + count, count)
-    at = first + np.arange(len(item_pose))
+    at = np.repeat(first_pair - np.cumsum(count) + count, count) + np.arange(len(item_pose))
     i, j = pair_a[at], pair_b[at]
     (centre_a, size_a), (centre_b, size_b) = bounds_a, bounds_b
-    ra_t = rot_a[item_pose].transpose(0, 2, 1)
-    rel = ra_t @ rot_b[item_pose]
-    t = ((ra_t @ offset[item_pose, :, None])[:, :, 0] + (rel @ centre_b[j][:, :, None])[:, :, 0]
-         - centre_a[i])
+    rel = rel_pose[item_pose]
+    t = t_pose[item_pose] + (rel @ centre_b[j][:, :, None])[:, :, 0] - centre_a[i]
     ok = _overlap(t, rel, np.abs(rel) + ABS_ROTATION_EPS, 0.5 * size_a[i], 0.5 * size_b[j])
     return item_pose[ok], i[ok], j[ok]

@@ -236,11 +236,15 @@ def convex_hull(points, name: str = "part") -> Hull:
     return _make(points[used].copy(), normals, offsets, loops)
 
 
-@lru_cache(maxsize=512)
-def hull_of(part: Part) -> Hull:
-    """The (cached) hull of a part: :func:`box_hull` for a box, :func:`convex_hull` else."""
+def build_hull(part: Part) -> Hull:
+    """The hull of a part: :func:`box_hull` for a box, :func:`convex_hull` else."""
     if isinstance(part, BoxPart):
         return box_hull(part.size, part.centre)
     if isinstance(part, ConvexPart):
         return convex_hull(part.vertices(), part.name)
     raise TypeError(f"not a part: {part!r}")
+
+
+#: The cached hull of a part (hulls of a scene's parts; a request's own parts use
+#: :func:`build_hull`, outside the cache).
+hull_of = lru_cache(maxsize=512)(build_hull)

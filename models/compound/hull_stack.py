@@ -151,7 +151,10 @@ _CACHE: dict[tuple[int, ...], HullStack] = {}
 
 def _cached(cache: dict, hulls: tuple, build):
     """``build(hulls)``, cached in ``cache`` by the hulls' identities; the entry holds the hulls
-    (``.hulls``), so an identity is never reused while its entry lives."""
+    (``.hulls``), so an identity is never reused while its entry lives. ``cache`` None: built,
+    not cached."""
+    if cache is None:
+        return build(hulls)
     key = tuple(id(h) for h in hulls)
     found = cache.get(key)
     if found is not None and all(a is b for a, b in zip(found.hulls, hulls)):
@@ -187,12 +190,15 @@ def _size_class(hull: Hull) -> int:
 _CLASSES: dict[tuple[int, ...], SizeClasses] = {}
 
 
-def size_classes(hulls) -> SizeClasses:
-    """The (cached) :class:`SizeClasses` of a body's hulls (in order)."""
+def size_classes(hulls, cached: bool = True) -> SizeClasses:
+    """The :class:`SizeClasses` of a body's hulls (in order), cached unless ``cached`` is
+    False (a body built for one request)."""
+    if not cached:
+        return _classes(tuple(hulls), cached=False)
     return _cached(_CLASSES, tuple(hulls), _classes)
 
 
-def _classes(hulls: tuple) -> SizeClasses:
+def _classes(hulls: tuple, cached: bool = True) -> SizeClasses:
     sizes = np.array([_size_class(h) for h in hulls])
     levels = np.unique(sizes)
     klass = np.searchsorted(levels, sizes)
@@ -201,5 +207,6 @@ def _classes(hulls: tuple) -> SizeClasses:
     for k in range(len(levels)):
         members = np.flatnonzero(klass == k)
         slot[members] = np.arange(len(members))
-        stacks.append(stack_hulls(hulls[i] for i in members))
+        chosen = tuple(hulls[i] for i in members)
+        stacks.append(stack_hulls(chosen) if cached else _build(chosen))
     return SizeClasses(hulls, tuple(stacks), klass, slot)

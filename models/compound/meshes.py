@@ -2,11 +2,15 @@
 convex hull, with a warning when the hull is not the mesh (a non-convex or open mesh)."""
 from __future__ import annotations
 
+import base64
+import binascii
+import io
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from impactnet.models.compound.part_limits import PartLimits, check_mesh, check_total
 from impactnet.models.compound.parts import ConvexPart
 from impactnet.models.scene_fields import SceneError
 
@@ -25,53 +29,74 @@ INLINE_FORMATS = ("stl", "obj", "glb", "ply", "off")
 
 
 def mesh_part(name: str, path: Path, where: str, source: str) -> ConvexPart:
-    """The convex part of the mesh file ``path``; ``where``/``source`` name the field in
-    errors (:class:`SceneError`) and warnings (:class:`HullWarning`)."""
+    """The convex part of the mesh file ``path`` (a scene's, already checked to lie in its
+    folder: :func:`impactnet.models.compound.part_limits.mesh_file`); ``where``/``source``
+    name the field in errors (:class:`SceneError`) and warnings (:class:`HullWarning`)."""
     import trimesh
 
     if not path.is_file():
-        raise SceneError(source, where, f"no such mesh file {str(path)!r}")
+        raise SceneError(source, where, f"no such mesh file {path.name!r}")
     try:
-        mesh = trimesh.load(path, force="mesh")
-    except Exception as exc:  # noqa: BLE001  trimesh raises many types for a bad file
-        raise SceneError(source, where, f"cannot load mesh {path.name!r}: {exc}") from None
+        mesh = trimesh.load(path, force="mesh", process=False)
+    except Exception:  # noqa: BLE001  trimesh raises many types for a bad file
+        raise SceneError(source, where, f"cannot read mesh file {path.name!r} as a mesh "
+                         "(STL, OBJ, GLB, PLY or OFF)") from None
     return _hull_part(name, mesh, path.name, where, source)
 
 
-def inline_mesh_part(name: str, value, where: str, source: str) -> ConvexPart:
-    """The convex part of a mesh given inline: ``{"format": "stl", "data": "<base64>"}``."""
-    import base64
-    import binascii
-    import io
-
-    import trimesh
-
+def _decoded(value, where: str, source: str) -> bytes:
+    """The bytes of an inline mesh ``{"format", "data"}`` (base64)."""
     if not isinstance(value, dict) or set(value) != {"format", "data"}:
         raise SceneError(source, where, "expected {format, data}: a mesh format and its "
                          "bytes in base64")
     if value["format"] not in INLINE_FORMATS:
         raise SceneError(source, f"{where}.format", f"unknown mesh format {value['format']!r}; "
                          f"choose one of {', '.join(INLINE_FORMATS)}")
+    if not isinstance(value["data"], str):
+        raise SceneError(source, f"{where}.data", "expected the mesh's bytes as a base64 string")
     try:
-        data = base64.b64decode(str(value["data"]), validate=True)
-        mesh = trimesh.load(io.BytesIO(data), file_type=value["format"], force="mesh")
-    except (binascii.Error, ValueError) as exc:
-        raise SceneError(source, f"{where}.data", f"not base64: {exc}") from None
-    except Exception as exc:  # noqa: BLE001  trimesh raises many types for a bad file
-        raise SceneError(source, f"{where}.data", f"cannot load the mesh: {exc}") from None
-    return _hull_part(name, mesh, f"inline {value['format']}", where, source)
+        return base64.b64decode(value["data"], validate=True)
+    except (binascii.Error, ValueError):
+        raise SceneError(source, f"{where}.data", "not base64 (standard alphabet, padded)") \
+            from None
+
+
+def inline_mesh_part(name: str, value, where: str, source: str,
+                     limits: PartLimits | None = None) -> ConvexPart:
+    """The convex part of a mesh given inline: ``{"format": "stl", "data": "<base64>"}``,
+    within ``limits`` (its vertices and triangles counted once loaded, before its hull)."""
+    import trimesh
+
+    data = _decoded(value, where, source)
+    kind = value["format"]
+    try:
+        mesh = trimesh.load(io.BytesIO(data), file_type=kind, force="mesh", process=False)
+    except Exception:  # noqa: BLE001  trimesh raises many types for a bad file
+        mesh = None
+    if mesh is None or not hasattr(mesh, "vertices") or not hasattr(mesh, "faces"):
+        raise SceneError(source, f"{where}.data", f"the data is not a readable {kind} mesh")
+    limits = limits or PartLimits()
+    check_mesh(len(mesh.vertices), len(mesh.faces), f"{where}.data", limits, source)
+    check_total(len(mesh.vertices), f"{where}.data", limits, source)
+    return _hull_part(name, mesh, f"inline {kind}", where, source)
 
 
 def _hull_part(name: str, mesh, label: str, where: str, source: str) -> ConvexPart:
-    """The convex hull of a loaded mesh as a part (refusing degenerate meshes); ``label``
-    names the mesh in messages."""
-    if len(getattr(mesh, "vertices", ())) < 4:
-        raise SceneError(source, where, f"mesh {label!r} has fewer than 4 vertices")
+    """The convex hull of a loaded mesh as a part (refusing non-finite and degenerate
+    meshes); ``label`` names the mesh in messages."""
+    vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), np.float64)
+    if not np.isfinite(vertices).all():
+        row = int(np.flatnonzero(~np.isfinite(vertices).all(axis=1))[0])
+        raise SceneError(source, where, f"mesh {label!r}: vertex {row} is not finite")
+    mesh.merge_vertices()
+    if len(mesh.vertices) < 4:
+        raise SceneError(source, where, f"mesh {label!r} has fewer than 4 vertices (once "
+                         "repeats are merged)")
     try:
         hull = mesh.convex_hull
-    except Exception as exc:  # noqa: BLE001  qhull errors on flat or degenerate meshes
-        raise SceneError(source, where, f"mesh {label!r} has no convex hull (flat or "
-                         f"degenerate): {str(exc).splitlines()[0]}") from None
+    except Exception:  # noqa: BLE001  qhull errors on flat or degenerate meshes
+        raise SceneError(source, where, f"mesh {label!r} has no convex hull (its vertices are "
+                         "flat or degenerate)") from None
     volume = abs(float(mesh.volume)) if mesh.is_watertight else 0.0
     if abs(float(hull.volume) - volume) > HULL_VOLUME_TOL_REL * float(hull.volume):
         warnings.warn(f"{source}: {where}: mesh {label!r} is not convex (or not closed): "

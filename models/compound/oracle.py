@@ -38,7 +38,6 @@ from impactnet.models.compound.body_table import body_table
 from impactnet.models.compound.broadphase import broadphase
 from impactnet.models.compound.convex_contact import chunk_rows, stacked_contacts
 from impactnet.models.compound.convex_sat import choose_axis
-from impactnet.models.compound.hull_stack import size_classes
 from impactnet.models.contacts import Contacts
 from impactnet.models.geometry.rotations import quaternion_to_matrix, validate_quaternion
 
@@ -128,7 +127,7 @@ def compound_touching(parts_a, position_a, quaternion_a, parts_b, position_b,
     pos_a, pos_b = np.broadcast_to(pos_a, (n, 3)), np.broadcast_to(pos_b, (n, 3))
     rot_a, rot_b = np.broadcast_to(rot_a, (n, 3, 3)), np.broadcast_to(rot_b, (n, 3, 3))
     pose, i, j = broadphase(table_a, table_b, pos_b - pos_a, rot_a, rot_b)
-    classes_a, classes_b = size_classes(table_a.hulls), size_classes(table_b.hulls)
+    classes_a, classes_b = table_a.classes, table_b.classes
     ra_t = rot_a[pose].transpose(0, 2, 1)
     t = np.einsum("kij,kj->ki", ra_t, (pos_b - pos_a)[pose])
     rot = ra_t @ rot_b[pose]
@@ -224,12 +223,20 @@ def _narrowphase(pose, i, j, body_a, body_b) -> Contacts:
     both = table_a.is_box[i] & table_b.is_box[j]
     rows = np.flatnonzero(both)
     at, ia, jb = pose[rows], i[rows], j[rows]
-    centre_a = pos_a[at] + np.einsum("kij,kj->ki", rot_a[at], table_a.centre[ia])
-    centre_b = pos_b[at] + np.einsum("kij,kj->ki", rot_b[at], table_b.centre[jb])
-    pieces = [(rows, _box_pairs(table_a.size[ia], centre_a, q_a[at], table_b.size[jb],
-                                centre_b, q_b[at]))]
+    # Box parts are solved about A's origin (centres relative to p_A, then the answer moved
+    # back): a body at the position limit has parts beyond it, and the box solver's domain
+    # is the body's, not the part's.
+    centre_a = np.einsum("kij,kj->ki", rot_a[at], table_a.centre[ia])
+    centre_b = (pos_b[at] - pos_a[at]) + np.einsum("kij,kj->ki", rot_b[at], table_b.centre[jb])
+    found = _box_pairs(table_a.size[ia], centre_a, q_a[at], table_b.size[jb], centre_b,
+                       q_b[at])
+    found.point += pos_a[at]
+    found.manifold_points += np.where(
+        (np.arange(found.manifold_points.shape[1])[None, :]
+         < found.manifold_count[:, None])[:, :, None], pos_a[at][:, None, :], 0.0)
+    pieces = [(rows, found)]
     others = np.flatnonzero(~both)
-    classes_a, classes_b = size_classes(table_a.hulls), size_classes(table_b.hulls)
+    classes_a, classes_b = table_a.classes, table_b.classes
     ia, jb = i[others], j[others]
     pair_class = classes_a.klass[ia] * len(classes_b.stacks) + classes_b.klass[jb]
     for key in np.unique(pair_class):  # one call per pair of size classes

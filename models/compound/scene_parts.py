@@ -32,7 +32,7 @@
               centre = [0, 0, 0.1] }  # a convex polygon (in order) extruded along an axis
     [[bodies.stop.parts]]
     name = "lid"
-    mesh = "lid.stl"              # STL/OBJ/GLB next to the scene file: its convex hull
+    mesh = "lid.stl"              # STL/OBJ/GLB in the scene file's folder: its convex hull
 
 The generated shapes' parameters are documented in :mod:`impactnet.models.compound.shapes`
 (``centre`` defaults to the origin; ``tip_scale`` to 1, ``high`` to ``"-x"``, ``low_height``
@@ -40,9 +40,15 @@ to 0, ``axis`` to ``"z"``). Every part goes through
 :func:`impactnet.models.compound.parts.validate_parts` (domain, flat hulls, a part inside a box
 part) and :func:`check_not_inside_convex` (a part inside a convex part); their errors come back
 as :class:`SceneError` naming the field (``bodies.stop.parts[2].mesh: ...``).
+
+Parts given by a client (the HTTP API) come with :class:`~impactnet.models.compound.part_limits.
+PartLimits`: their counts are checked on the tables before any shape is built, and a mesh must
+be data (``{format, data}``), never a file name. A scene file may name mesh files in its own
+folder only.
 """
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -51,6 +57,7 @@ import numpy as np
 from impactnet.models import scene_fields as sf
 from impactnet.models.compound import crane_bodies as cb
 from impactnet.models.compound import shapes
+from impactnet.models.compound.part_limits import PartLimits, check_counts, mesh_file
 from impactnet.models.compound.parts import (
     INSIDE_TOL_REL,
     BoxPart,
@@ -66,6 +73,8 @@ GENERATORS = {"container": ("kind", "detail"), "spreader": ("kind", "sides"),
               "cell_guide": ("entry_angle_deg",)}
 #: Keys of a body table that describe a compound body.
 COMPOUND_KEYS = {"generator", "parts", *(k for keys in GENERATORS.values() for k in keys)}
+#: A shape parameter's field as a generator names it first in a message (``section[2]``).
+_PARAMETER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*")
 #: The shapes a part may take (exactly one per part).
 SHAPES = ("box", "points", "frustum", "wedge", "prism", "mesh")
 
@@ -75,8 +84,15 @@ def is_compound(entry: Mapping) -> bool:
     return bool(COMPOUND_KEYS & set(entry))
 
 
-def compound_parts(entry: Mapping, path: str, source: str) -> tuple:
-    """The validated parts of a compound body table ``entry`` at ``path`` (``bodies.X``)."""
+def compound_parts(entry: Mapping, path: str, source: str,
+                   limits: PartLimits | None = None) -> tuple:
+    """The validated parts of a compound body table ``entry`` at ``path`` (``bodies.X``).
+
+    ``limits`` bound the parts' counts (checked before any shape is built) and say where mesh
+    files may be read from; None: a scene file's (no bounds, meshes in ``source``'s folder).
+    """
+    if limits is None:
+        limits = PartLimits(mesh_folder=Path(source).parent)
     if ("generator" in entry) == ("parts" in entry):
         raise SceneError(source, path, "give exactly one of `generator` and `parts`")
     try:
@@ -85,8 +101,10 @@ def compound_parts(entry: Mapping, path: str, source: str) -> tuple:
         parts = entry["parts"]
         if not isinstance(parts, list) or not parts:
             raise SceneError(source, f"{path}.parts", "expected at least one [[parts]] entry")
+        check_counts(parts, f"{path}.parts", limits, source)
         return check_not_inside_convex(path, validate_parts(
-            path, [_part(p, f"{path}.parts[{k}]", source) for k, p in enumerate(parts)]))
+            path, [_part(p, f"{path}.parts[{k}]", source, limits)
+                   for k, p in enumerate(parts)]))
     except PartError as exc:
         names = [p.get("name") for p in entry.get("parts", []) if isinstance(p, Mapping)]
         where = f"{path}.parts[{names.index(exc.part)}]" if exc.part in names else path
@@ -117,7 +135,7 @@ def _vector(value, path: str, source: str, width: int = 3) -> list[float]:
     return [sf.number(v, f"{path}[{i}]", source) for i, v in enumerate(value)]
 
 
-def _part(entry, path: str, source: str):
+def _part(entry, path: str, source: str, limits: PartLimits):
     entry = sf.table(entry, path, ({"name"}, set(SHAPES)), source)
     name = sf.name(entry["name"], f"{path}.name", source)
     shapes_given = [s for s in SHAPES if s in entry]
@@ -140,14 +158,23 @@ def _part(entry, path: str, source: str):
         except ValueError as exc:
             if isinstance(exc, SceneError):
                 raise
-            field, _, reason = str(exc).partition(": ")
-            raise SceneError(source, f"{where}.{field}", reason) from None
+            raise _shape_error(exc, where, source) from None
         return ConvexPart(name, tuple(map(tuple, np.asarray(points, np.float64))))
     from impactnet.models.compound.meshes import inline_mesh_part, mesh_part
 
     if isinstance(value, Mapping):  # inline in a request: {format, data (base64)}
-        return inline_mesh_part(name, dict(value), where, source)
-    return mesh_part(name, Path(source).parent / sf.text(value, where, source), where, source)
+        return inline_mesh_part(name, dict(value), where, source, limits)
+    return mesh_part(name, mesh_file(sf.text(value, where, source), limits, where, source),
+                     where, source)
+
+
+def _shape_error(exc: ValueError, where: str, source: str) -> SceneError:
+    """A shape generator's ``"parameter: reason"`` as a SceneError on that parameter's field;
+    a message without a parameter name goes on the shape's field."""
+    field, sep, reason = str(exc).partition(": ")
+    if sep and _PARAMETER.fullmatch(field):
+        return SceneError(source, f"{where}.{field}", reason)
+    return SceneError(source, where, str(exc))
 
 
 def _sizes(value, where: str, source: str, width: int = 3) -> tuple[float, ...]:

@@ -30,7 +30,7 @@ STATUS_CODES = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: 
                 405: "method_not_allowed", 406: "not_acceptable", 408: "body_timeout",
                 409: "mode_unavailable",
                 413: "body_too_large", 415: "unsupported_media_type", 422: "invalid_input",
-                500: "internal_error", 503: "unavailable"}
+                500: "internal_error", 503: "unavailable", 504: "deadline_exceeded"}
 
 
 class ServiceError(StarletteHTTPException):
@@ -110,6 +110,26 @@ class PayloadTooLarge(ServiceError):
         # An unread rest of the body may still be in flight: close the connection after.
         close = {"Connection": "close"} if error == "body_too_large" else None
         super().__init__(413, error, message, headers=close)
+
+
+class LimitRefused(ServiceError):
+    """413: the request's work or geometry passes a limit (a setting, named in ``limit``)
+    before any of the costly work is done: it could never be admitted as it is."""
+
+    def __init__(self, error: str, field: str, reason: str, limit: str) -> None:
+        super().__init__(413, error, f"{field}: {reason}", [item(field, reason, error)],
+                         limit=limit)
+        self.limit = limit
+
+
+class DeadlineExceeded(ServiceError):
+    """504 ``deadline_exceeded``: the request computed past ``compute_deadline_s`` and its
+    work was stopped. A front must not replay it on another replica."""
+
+    def __init__(self, seconds: float, deadline_s: float) -> None:
+        super().__init__(504, "deadline_exceeded", f"the request computed for {seconds:.1f} s, "
+                         f"past compute_deadline_s ({deadline_s:g} s); its work was stopped. "
+                         "Send fewer pairs per request", limit="compute_deadline_s")
 
 
 class ModeUnavailable(ServiceError):
@@ -212,6 +232,10 @@ def validation_items(errors) -> list[dict]:
 
 
 async def _service_error(request: Request, exc: ServiceError) -> Response:
+    if isinstance(exc, LimitRefused):  # refusals counted by the limit that refused them
+        runtime = getattr(request.app.state, "runtime", None)
+        if runtime is not None:
+            runtime.metrics.rejected.labels(exc.limit).inc()
     return error_response(exc.status_code, exc.error, exc.message, exc.items, exc.headers,
                           **exc.extra)
 

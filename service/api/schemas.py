@@ -28,8 +28,12 @@ from impactnet.models.domain import (  # the solver's input domain
 ANGLE_MAX = 1e6
 #: Longest scene object name.
 OBJECT_NAME_MAX = 64
-#: Most parts of a compound body given inline in a request.
+#: Most parts of a compound body given inline in a request (the setting `max_inline_parts`
+#: may set fewer).
 MAX_INLINE_PARTS = 128
+#: Most keys of one inline part, nested tables included: `name`, one shape, and the largest
+#: shape table's keys (a frustum's sides, base, tip_scale, height, centre).
+PART_KEYS_MAX = 7
 
 Mode = Literal["exact", "single", "committee", "auto"]
 Include = Literal["manifold", "paper_angles"]
@@ -59,7 +63,8 @@ class Body(BaseModel):
     object: ObjectName | None = Field(None, description="Name of a body of the served scene "
                                       "(GET /v1/models lists them); instead of `size`.")
     parts: Annotated[list[dict], Field(min_length=1, max_length=MAX_INLINE_PARTS)] | None = Field(
-        None, description="A compound body given inline (POST /v1/contact only), in the scene "
+        None, json_schema_extra={"x-max-keys-per-item": PART_KEYS_MAX},
+        description="A compound body given inline (POST /v1/contact only), in the scene "
         "files' part format: each `{name, box: {size, centre}}`, `{name, points: [[x, y, z], "
         "...]}`, `{name, frustum: {sides, base, tip_scale, height, centre}}` or `{name, mesh: "
         "{format: stl|obj|glb, data: <base64>}}`; instead of `size` / `object`.")
@@ -216,7 +221,9 @@ class ErrorItem(BaseModel):
 
 class ErrorResponse(BaseModel):
     error: str = Field(description="invalid_input, unsupported_pair, body_too_large, "
-                       "batch_too_large, body_timeout, mode_unavailable, not_ready, overloaded, "
+                       "batch_too_large, too_many_candidates, too_many_part_contacts, "
+                       "geometry_too_large, deadline_exceeded, "
+                       "body_timeout, mode_unavailable, not_ready, overloaded, "
                        "unsupported_media_type, not_acceptable, not_found, "
                        "method_not_allowed, unauthorized, forbidden, reload_failed, "
                        "internal_error.")
@@ -225,6 +232,9 @@ class ErrorResponse(BaseModel):
     request_id: str | None = None
     mode: str | None = Field(None, description="The mode at fault (mode_unavailable, "
                              "unsupported_pair).")
+    limit: str | None = Field(None, description="The limit at fault (a setting named in GET "
+                              "/v1/models `limits`): 413 refusals and 504 "
+                              "deadline_exceeded.")
     step: str | None = Field(None, description="reload_failed: the step that failed "
                              "(resolve, read, scene_hash, build, smoke, warm_up, install).")
     bundle: str | None = Field(None, description="reload_failed: the bundle folder tried.")
@@ -287,7 +297,8 @@ class ModelsResponse(BaseModel):
     modes: ModesInfo
     scene: dict | None = Field(description="name, hash, objects (name -> size), pairs; "
                                "null when no scene is loaded.")
-    bundle: dict | None = Field(description="The learned bundle: path, version, scene (name, "
+    bundle: dict | None = Field(description="The learned bundle: name (its folder), version, "
+                                "scene (name, "
                                 "hash), created_utc, files (SHA-256), pairs (sizes, modes, "
                                 "validation metrics, auto thresholds), scene pairs covered and "
                                 "not, the smoke test's figures; null while none is loaded.")

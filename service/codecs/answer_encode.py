@@ -6,7 +6,7 @@ whole cost 4 times its size at the peak (orjson's growing buffer and its final c
 written :data:`STREAM_ROWS` rows of one column at a time (orjson, shortest round-trip floats,
 the same bytes as one call over the whole answer), grouped into pieces of about
 :data:`PIECE_BYTES`, each encoded in a worker thread and sent before the next is made
-(:class:`StreamedJSON`): the answer's memory is its arrays plus one piece. A client that does
+(:class:`StreamedAnswer`): the answer's memory is its arrays plus one piece. A client that does
 not take the answer within ``send_timeout_s`` is disconnected.
 """
 from __future__ import annotations
@@ -53,25 +53,37 @@ def _text(values, start: int, stop: int) -> bytes:
     return orjson.dumps(values[start:stop], option=orjson.OPT_SERIALIZE_NUMPY)[1:-1]
 
 
-def json_pieces(arrays: dict, mode: str, model_version: str) -> Iterator[bytes]:
-    """The JSON answer (:class:`impactnet.service.api.schemas.BatchResponse`) in pieces of
-    ~PIECE_BYTES."""
-    n = len(arrays["depth"])
-    buffer = [b'{"n":%d,"mode":%s,"model_version":%s' % (
-        n, orjson.dumps(mode), orjson.dumps(model_version))]
-    size = 0
-    for key, values in _columns(arrays):
-        buffer.append(b',"%s":[' % key.encode())
-        for start in range(0, n, STREAM_ROWS):
-            text = _text(values, start, start + STREAM_ROWS)
-            buffer.append(b"," + text if start else text)
+def pieces_of(head: bytes, columns, tail: bytes) -> Iterator[bytes]:
+    """``head``, then each column as ``opening + "[" + its texts joined by "," + "]"``, then
+    ``tail``, gathered into pieces of about :data:`PIECE_BYTES`; ``columns`` yields
+    ``(opening, texts)`` (each text a slice of values as JSON without its brackets)."""
+    buffer, size = [head], 0
+    for opening, texts in columns:
+        buffer.append(opening + b"[")
+        first = True
+        for text in texts:
+            if text:
+                buffer.append(text if first else b"," + text)
+                first = False
             size += len(text)
             if size >= PIECE_BYTES:
                 yield b"".join(buffer)
                 buffer, size = [], 0
         buffer.append(b"]")
-    buffer.append(b"}")
+    buffer.append(tail)
     yield b"".join(buffer)
+
+
+def json_pieces(arrays: dict, mode: str, model_version: str) -> Iterator[bytes]:
+    """The JSON answer (:class:`impactnet.service.api.schemas.BatchResponse`) in pieces of
+    ~PIECE_BYTES."""
+    n = len(arrays["depth"])
+    head = b'{"n":%d,"mode":%s,"model_version":%s' % (n, orjson.dumps(mode),
+                                                        orjson.dumps(model_version))
+    columns = ((b',"%s":' % key.encode(),
+                (_text(values, start, start + STREAM_ROWS) for start in range(0, n, STREAM_ROWS)))
+               for key, values in _columns(arrays))
+    return pieces_of(head, columns, b"}")
 
 
 def encode_json(arrays: dict, mode: str, model_version: str) -> bytes:
@@ -86,14 +98,14 @@ def encode_npz(arrays: dict, mode: str, model_version: str) -> bytes:
     return buffer.getvalue()
 
 
-class StreamedJSON(Response):
-    """A 200 JSON answer sent piece by piece (chunked), each piece made in a worker thread."""
-
-    media_type = "application/json"
+class StreamedAnswer(Response):
+    """A 200 answer (JSON or npz) sent piece by piece (chunked), each piece made in a worker
+    thread."""
 
     def __init__(self, pieces: Iterator[bytes], headers: dict[str, str],
-                 send_timeout_s: float) -> None:
+                 send_timeout_s: float, media_type: str = "application/json") -> None:
         self.status_code, self.background = 200, None
+        self.media_type = media_type
         self.init_headers(headers)  # no body yet, so no Content-Length: chunked
         self.pieces, self.send_timeout_s = pieces, send_timeout_s
 

@@ -97,16 +97,37 @@ def check_no_duplicates(raw: bytes, keys: int) -> None:
         raise DuplicateKey(duplicate)
 
 
+#: Key of a field's ``json_schema_extra`` that declares the most keys each item of a list of
+#: free-form objects may hold (inline ``parts``: a part's schema lives in the scene parser).
+ITEM_KEYS = "x-max-keys-per-item"
+
+
+def _item_keys(info) -> int:
+    """Keys a list-of-objects field may hold at most: its items times their declared keys."""
+    extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+    per_item = extra.get(ITEM_KEYS, 0)
+    if not per_item:
+        return 0
+    constraints = list(info.metadata)
+    for arg in typing.get_args(info.annotation):  # Annotated[list[dict], Field(...)] | None
+        for meta in getattr(arg, "__metadata__", ()):
+            constraints += [meta, *getattr(meta, "metadata", ())]
+    items = max((m.max_length for m in constraints if getattr(m, "max_length", None)),
+                default=0)
+    return per_item * items
+
+
 @functools.cache
 def known_keys(model: type[BaseModel]) -> int:
-    """Keys a body of ``model`` can hold at most: its fields and, for a field whose type is
-    (or may be) a model, that model's keys."""
+    """Keys a body of ``model`` can hold at most: its fields; for a field whose type is (or
+    may be) a model, that model's keys; for a list of free-form objects, the keys it declares
+    (:data:`ITEM_KEYS`) per item."""
     count = len(model.model_fields)
     for name in _model_fields(model):
         annotation = model.model_fields[name].annotation
         count += max(known_keys(kind) for kind in (annotation, *typing.get_args(annotation))
                      if isinstance(kind, type) and issubclass(kind, BaseModel))
-    return count
+    return count + sum(_item_keys(info) for info in model.model_fields.values())
 
 
 def _colons_outside_strings(raw: bytes) -> int:

@@ -42,16 +42,13 @@ def rotation_reason(exc: InvalidRotationError) -> str:
 
 
 def unknown_object_reason(names, scene: SceneView) -> str:
-    compound = [str(n) for n in names if str(n) in scene.compound_names]
-    if compound:
-        return (f"{compound[0]!r} is a compound body (made of parts): the HTTP API does not "
-                "serve compound bodies yet (issue #20); the library does: "
-                "impactnet.models.compound.compound_answer")
+    """Why object ``names`` cannot be used: no scene, or the scene's bodies (all of them, box
+    and compound, named)."""
     if scene.name is None:
         return "no scene is loaded, so objects cannot be named; give `size` instead"
     shown = ", ".join(repr(str(n)) for n in list(names)[:5])
-    return (f"unknown object {shown}; scene {scene.name!r} has: "
-            f"{', '.join(scene.object_names)}")
+    bodies = sorted(set(scene.object_names) | set(scene.compound_names))
+    return f"unknown object {shown}; scene {scene.name!r} has: {', '.join(bodies)}"
 
 
 def _size(body: Body, side: str, scene: SceneView) -> list[float]:

@@ -5,9 +5,13 @@ the application sees the request, so that a request still uploading holds no com
 (:class:`impactnet.service.api.middleware.ConcurrencyLimit` sits inside it) and nothing of the
 application's:
 
-* **cap**: the body may not exceed the limit of its route (:func:`body_limit`): 413 at once
-  when ``Content-Length`` says so, before anything is read, and as soon as a streamed body
-  passes it;
+* **cap**: the body may not exceed the limit of its route (:func:`body_limit`): 413 when
+  ``Content-Length`` says so, before anything is stored, and as soon as a streamed body passes
+  it. The 413 is sent at once; a client that sends its whole body before it reads (most HTTP
+  libraries) would then see its connection reset instead of the 413, so the rest of the body
+  is read and dropped before the answer ends and the connection closes, up to
+  :data:`DISCARD_MAX_BYTES` and within the body deadline, as nginx's lingering close does (a
+  client that asked ``Expect: 100-continue`` sends nothing more: nothing is read);
 * **deadline**: the whole body must have arrived within ``body_timeout_s``; otherwise 408
   ``body_timeout``, and the connection is closed (a stalled client sent headers and a byte,
   then nothing: it must not hold anything for longer; :mod:`impactnet.service.limits.uploads` keeps
@@ -38,6 +42,12 @@ LEASE = "impactnet.lease"
 NPZ = b"application/x-npz"
 BATCH_PATH = "/v1/contact/batch"
 _CLOSE = [(b"connection", b"close")]
+#: Most bytes of an oversized body read and dropped before its 413 is sent (more: the
+#: connection is closed after the 413 without reading on): the largest body any route takes.
+DISCARD_MAX_BYTES = 64 << 20
+#: Seconds without a byte of an oversized body after which the reading stops and the
+#: connection closes (a client that sends its body keeps sending; a stalled one is let go).
+DISCARD_IDLE_S = 1.0
 
 
 def body_limit(scope: Scope, runtime: Runtime) -> int:
@@ -78,7 +88,9 @@ class BodyReader(Middleware):
                 return
             limit = body_limit(scope, self.runtime)
             if declared is not None and declared.isdigit() and int(declared) > limit:
-                await self._too_large(send, limit)
+                continues = (header(scope, b"expect") or b"").lower() == b"100-continue"
+                await self._too_large(send, limit, None if continues else (receive, 0,
+                                                                           int(declared)))
                 return
             body = await self._read(receive, send, limit, lease)
             if body is None:  # answered already (408, 413, 503) or the client left
@@ -95,11 +107,20 @@ class BodyReader(Middleware):
             await self.app(scope, replay, send)
         finally:
             lease.release()
+            self.runtime.trimmer.released(lease.peak)
 
-    async def _too_large(self, send: Send, limit: int) -> None:
+    async def _too_large(self, send: Send, limit: int, rest=None) -> None:
+        """The 413; with ``rest`` (receive, bytes read, bytes declared or None), the rest of
+        the body is then read and dropped before the answer ends (:meth:`_discard`)."""
         self.runtime.metrics.rejected.labels("body_too_large").inc()
         await send_error(send, 413, "body_too_large",
-                         f"request body larger than the limit of {limit} bytes", _CLOSE)
+                         f"request body larger than the limit of {limit} bytes", _CLOSE,
+                         more_body=rest is not None)
+        if rest is not None:
+            try:
+                await self._discard(*rest)
+            finally:
+                await send({"type": "http.response.body", "body": b"", "more_body": False})
 
     async def _read(self, receive: Receive, send: Send, limit: int, lease: Lease) -> bytes | None:
         """The body, or None after answering the error (or when the client disconnected)."""
@@ -119,7 +140,7 @@ class BodyReader(Middleware):
                     continue
                 total += len(chunk)
                 if total > limit:
-                    await self._too_large(send, limit)
+                    await self._too_large(send, limit, (receive, total, None) if more else None)
                     return None
                 await lease.areserve(len(chunk), "the request body")
                 chunks.append(chunk)
@@ -136,6 +157,31 @@ class BodyReader(Middleware):
         if len(chunks) == 1:  # a small body: one message
             return chunks[0]
         return await self._joined(chunks, total, lease, send)
+
+    async def _discard(self, receive: Receive, read: int, declared: int | None) -> None:
+        """Read and drop the rest of an oversized body (``read`` bytes of it read already,
+        ``declared`` in all if known), up to :data:`DISCARD_MAX_BYTES`, within the body
+        deadline, and while it keeps coming (a pause of :data:`DISCARD_IDLE_S` ends it, as
+        nginx's ``lingering_timeout``), so that a client still sending it reads the 413."""
+        if declared is not None and declared > DISCARD_MAX_BYTES:
+            return
+        uploads = self.runtime.uploads
+        task = uploads.begin()
+        try:
+            more = True
+            while more and read <= DISCARD_MAX_BYTES:
+                message = await asyncio.wait_for(receive(), DISCARD_IDLE_S)
+                if message["type"] == "http.disconnect":
+                    return
+                read += len(message.get("body", b""))
+                more = message.get("more_body", False)
+        except TimeoutError:
+            return
+        except asyncio.CancelledError:
+            if not uploads.expired(task):
+                raise
+        finally:
+            uploads.end(task)
 
     async def _refused(self, send: Send, exc: Overloaded | PayloadTooLarge) -> None:
         extra = [(b"retry-after", v.encode()) for k, v in (exc.headers or {}).items()

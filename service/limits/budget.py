@@ -129,17 +129,22 @@ class Lease:
     def __init__(self, budget: MemoryBudget) -> None:
         self.budget = budget
         self.held = 0
+        self.peak = 0  # most bytes held at once (a large request is followed by a trim)
+
+    def _grew(self, n: int) -> None:
+        self.held += n
+        self.peak = max(self.peak, self.held)
 
     def reserve(self, n: int, what: str) -> None:
         """Blocking reservation (worker threads)."""
         self.budget.reserve(n, what)
-        self.held += n
+        self._grew(n)
 
     async def areserve(self, n: int, what: str) -> None:
         """Reservation from the event loop."""
         if not self.budget.try_reserve(n):
             await self.budget.areserve(n, what)
-        self.held += n
+        self._grew(n)
 
     def give_back(self, n: int) -> None:
         """Release ``n`` of the held bytes early (a temporary copy that is gone)."""

@@ -98,3 +98,18 @@ def test_nginx_accepts_the_compose_rendering(nginx, tmp_path):
         text = text.replace("server impactnet:8000 resolve", "server 127.0.0.1:8000")
     done = nginx_test(nginx, text, str(tmp_path))
     assert done.returncode == 0, done.stderr
+
+
+def test_the_front_retries_only_refusals_and_outlasts_the_replicas_deadline():
+    """A 503 comes before any work and may go to another replica; a timeout or a 504 comes
+    after work started and must not (issue #31, item 7)."""
+    from impactnet.service.settings import Settings
+
+    text = nginx_conf.TEMPLATE.read_text()
+    retried = re.search(r"^\s*proxy_next_upstream ([^;]+);", text, re.M).group(1).split()
+    assert "http_503" in retried and "error" in retried
+    assert not {"timeout", "http_504", "http_502", "http_500"} & set(retried)
+    read_timeout = int(re.search(r"proxy_read_timeout (\d+)s;", text).group(1))
+    compose = yaml.safe_load(COMPOSE.read_text())["services"]["impactnet"]["environment"]
+    deadline = float(compose.get("IMPACTNET_COMPUTE_DEADLINE_S", Settings().compute_deadline_s))
+    assert read_timeout > deadline and read_timeout > Settings().compute_deadline_s

@@ -70,7 +70,8 @@ def test_models_reports_the_bundle(learned, files):
     assert body["modes"] == {"available": ["exact", "single", "committee", "auto"],
                              "unavailable": {}, "default": "auto"}
     bundle = body["bundle"]
-    assert bundle["path"] == str(files["bundle"].resolve())
+    assert bundle["name"] == files["bundle"].name
+    assert str(files["bundle"].parent) not in str(body)  # no server path shown
     assert bundle["version"] == "svc-test-1" and bundle["created_utc"]
     assert bundle["scene"] == {"name": "svc_test", "hash": body["scene"]["hash"]}
     assert set(bundle["files"]["weights.safetensors"]) == {"sha256", "bytes"}

@@ -49,18 +49,44 @@ async def _ready_app(**overrides):
 
 
 @pytest.mark.parametrize("path", ["/v1/contact", "/v1/contact/batch"])
-def test_streamed_body_over_the_limit_is_413_before_it_is_all_read(path):
+def test_streamed_body_over_the_limit_is_413_and_its_rest_is_dropped_unkept(path):
     async def main():
         app = await _ready_app(max_body_bytes=10 * 1024)
         chunks = [b" " * 1024] * 100  # 100 KiB, chunked (no Content-Length)
         status, headers, body, consumed = await _call(
             app, "POST", path, chunks, [("content-type", "application/json")])
-        return status, body, consumed
+        return status, body, consumed, app.state.runtime.budget.peak
 
-    status, body, consumed = asyncio.run(main())
+    status, body, consumed, peak = asyncio.run(main())
     assert status == 413
     assert json.loads(body)["error"] == "body_too_large"
-    assert consumed <= 11  # stopped reading right after the limit
+    # the rest is read (so that a client sending it all gets to read the 413), never kept
+    assert consumed == 100 and peak <= 11 * 1024
+
+
+def test_a_declared_oversized_body_is_read_and_dropped_before_its_413():
+    async def main():
+        app = await _ready_app(max_body_bytes=10 * 1024)
+        chunks = [b" " * 1024] * 100
+        status, headers, body, consumed = await _call(
+            app, "POST", "/v1/contact/batch", chunks,
+            [("content-type", "application/json"), ("content-length", str(100 * 1024))])
+        return status, headers, consumed, app.state.runtime.budget.peak
+
+    status, headers, consumed, peak = asyncio.run(main())
+    assert status == 413 and headers[b"connection"] == b"close"
+    assert consumed == 100 and peak == 0  # read to its end, nothing stored
+
+
+def test_an_oversized_body_that_waits_for_100_continue_is_413_unread():
+    async def main():
+        app = await _ready_app(max_body_bytes=10 * 1024)
+        return await _call(app, "POST", "/v1/contact/batch", [b" " * 1024] * 100,
+                           [("content-type", "application/json"),
+                            ("content-length", str(100 * 1024)), ("expect", "100-continue")])
+
+    status, headers, body, consumed = asyncio.run(main())
+    assert status == 413 and consumed == 0
 
 
 def test_declared_content_length_over_the_limit_is_413_unread():

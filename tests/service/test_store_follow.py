@@ -92,7 +92,8 @@ def test_a_published_version_is_served_within_a_poll(scene, store):
     with follower_app(scene, store) as client:
         assert served(client) == "svc-v1"
         status = client.get("/v1/models").json()["store"]
-        assert status["path"] == str(store.resolve()) and status["poll_s"] == POLL_S
+        assert status["name"] == store.name and status["poll_s"] == POLL_S
+        assert "path" not in status  # no server path to unauthenticated clients
         assert status["served"] == "svc-v1" and status["failures"] == 0
         started = time.monotonic()
         publish(store, scene, "svc-v2")

@@ -4,6 +4,7 @@
                     [--grids 1,2,4,8,16,32,64] [--bundle PATH]
     impactnet bench exact [--quick] [--json PATH] [--seed 0] [--baseline DIR]
     impactnet bench compound [--quick] [--out DIR] [--plot PNG] [--seed 1]
+    impactnet bench hostile [--quick] [--out DIR] [--scene quay_crane_detail]
 
 The first form measures the exact solver, python-fcl's Box-Box, the paper's polygon method at
 each grid size and the learned predictors (``models.load_predictor``; "not available: <reason>"
@@ -99,6 +100,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     moe.add_argument("--plot", metavar="PNG", help="the plot's path (default: in --out)")
     moe.add_argument("--http", action="store_true", help="also issue #21's HTTP goals: a "
                      "server on 127.0.0.1 with the scene, /v1/contact and a 100k npz batch")
+    hostile = sub.add_parser(
+        "hostile", help="what the hostile probe's requests cost a replica (issue #31)",
+        description="Each hostile reproducer (inline geometry, compound batches that amplify, "
+                    "a disconnect, a request past its deadline) against a fresh server on "
+                    "127.0.0.1: statuses, wall time, peak and idle memory, /healthz p99, CPU; "
+                    "and a 10-pair batch's latency while two large batches run (~5 minutes).")
+    hostile.add_argument("--quick", action="store_true", help="a tenth of the rows")
+    hostile.add_argument("--out", metavar="DIR", help="write hostile.md there")
+    hostile.add_argument("--scene", default="quay_crane_detail", help="scene name or path")
     decide = sub.add_parser(
         "decide", help="per pair of a box scene: exact-only or learned, by issue #21's rule",
         description="Per pair of a box scene: the exact solver and the bundle's auto mode "
@@ -140,6 +150,11 @@ def run(args: argparse.Namespace) -> int:
         config = replace(MOE_QUICK if args.quick else MoeConfig(), scene=args.scene,
                          bundle=args.bundle, data=args.data, http=args.http)
         run_moe(config, args.out, args.plot)
+        return 0
+    if getattr(args, "bench_command", None) == "hostile":
+        from impactnet.training.bench.hostile import run as run_hostile
+
+        run_hostile(quick=args.quick, out=args.out, scene=args.scene)
         return 0
     if getattr(args, "bench_command", None) == "decide":
         from dataclasses import replace

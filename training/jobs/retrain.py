@@ -17,11 +17,13 @@ bundle
    depth range,
    accuracy, training config, impactnet version and bundle format), said as ``reused from
    bundle <version>``.
-3. Gate: :func:`impactnet.training.fit.validation_gate.validation_gate` on the new manifest; its
-verdict is
-   stored in the manifest (``validation_gate``).
-   A passed bundle then gets each pair's decision (:mod:`impactnet.training.jobs.decisions`):
-   its learned path measured against the exact solver, served only where it pays.
+3. Decide, then gate: each pair's decision (:mod:`impactnet.training.jobs.decisions`): its
+   learned path measured against the exact solver, served only where it is fast enough and
+   within the scene's tolerance, else exact-only. Then
+   :func:`impactnet.training.fit.validation_gate.validation_gate` and
+   :func:`~impactnet.training.fit.validation_gate.served_checks` on the new manifest judge
+   what it serves (a learned pair's learned path, an exact-only pair's exact answers); the
+   verdict is stored in the manifest (``validation_gate``).
 4. Write: the bundle goes to ``versions/<version>/`` when it passed (or the gate is not
    enforced), else to ``rejected/<version>/``, atomically
    (:func:`impactnet.models.bundle.format.write_bundle`).
@@ -129,6 +131,22 @@ def _publish(store: Path, path: Path, version: str) -> None:
     set_current(store, version)
 
 
+def decide_and_gate(scene: Scene, manifest: dict, tensors: dict, quick: bool, job: JobConfig,
+                    log=None) -> tuple[dict, GateResult]:
+    """Stage 3 of the module docstring: ``manifest`` with each pair's decision and the gate's
+    verdict (also stored in it as ``validation_gate``), and the verdict.
+
+    The decisions come first, so that the gate judges what the bundle serves: a pair decided
+    exact-only (too slow, or its learned path misses the scene's tolerance) is held to the
+    exact solver's served answers, not to its learned path's figures.
+    """
+    manifest = record_decisions(scene, manifest, tensors, quick, log, job.gate.served_rows)
+    gate = validation_gate(manifest, scene, job.gate)
+    gate = GateResult.of(gate.checks + served_checks(manifest, tensors, scene, job.gate))
+    manifest["validation_gate"] = {**gate.to_dict(), "enforced": job.enforce_gate}
+    return manifest, gate
+
+
 def run_train_job(scene: Scene, out, config: TrainConfig | None = None,
                   job: JobConfig | None = None, progress: bool | None = None,
                   annotate: dict | None = None) -> JobOutcome:
@@ -159,14 +177,9 @@ def run_train_job(scene: Scene, out, config: TrainConfig | None = None,
     manifest["training"]["reused_pairs"] = list(reused)
     manifest["training"]["reused_from"] = dict(reused)
     manifest.update(annotate or {})
-    gate = validation_gate(manifest, scene, job.gate)
-    served = served_checks(manifest, tensors, scene, job.gate)
-    gate = GateResult(gate.passed and all(c["met"] for c in served), gate.checks + served)
-    manifest["validation_gate"] = {**gate.to_dict(), "enforced": job.enforce_gate}
+    manifest, gate = decide_and_gate(scene, manifest, tensors, config.quick, job,
+                                     train_log if progress is not False else None)
     accepted = gate.passed or not job.enforce_gate
-    if accepted:  # the learned path passed its gate: is it worth serving, pair by pair?
-        manifest = record_decisions(scene, manifest, tensors, config.quick,
-                                    train_log if progress is not False else None)
     version = _unique_version(store, manifest["version"])
     manifest["version"] = version
     path = write_bundle(store / (VERSIONS if accepted else REJECTED) / version, manifest,

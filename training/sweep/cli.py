@@ -7,8 +7,11 @@ Runs trials of the Optuna study NAME (:mod:`impactnet.training.sweep.run`) until
 complete
 or pruned ones, then writes ``report.md`` and ``pareto.png``
 (:mod:`impactnet.training.sweep.report`) and,
-with ``--out``, retrains the cheapest trial that meets the scene's tolerance on every pair and
-publishes it as a new version of that bundle store (validation gate as in `impactnet train`).
+with ``--out``, retrains the cheapest trial that meets the scene's tolerance (on the trial's
+pairs) on all the scene's pairs and publishes it as a new version of that bundle store
+(per-pair decisions and validation gate as in `impactnet train`: a pair whose learned path is
+too slow or misses the tolerance is served exact-only; what serves each pair, and why, is
+printed).
 Storage: SQLite under ``runs/sweeps/NAME/`` by default; any SQLAlchemy URL (e.g.
 ``postgresql://user:pw@host/db``) shares the study between machines that run the same command.
 Rerunning the command resumes the study by name. ``--show`` runs no trial: it prints the
@@ -137,6 +140,7 @@ def _check_scene(scene, args) -> None:
 
 def _report_and_publish(args, config, study, scene) -> int:
     """Print the state and the Pareto table, write the report, publish the pick if asked."""
+    from impactnet.training.jobs.decisions import decision_lines
     from impactnet.training.jobs.retrain import JobConfig
     from impactnet.training.sweep.report import (
         pareto_table,
@@ -165,6 +169,7 @@ def _report_and_publish(args, config, study, scene) -> int:
     outcome = publish_pick(study, scene, picked, args.out,
                            JobConfig(enforce_gate=not args.no_gate), progress=False,
                            workdir=config.workdir, rebuild=rebuild)
+    print("served per pair:\n  " + "\n  ".join(decision_lines(outcome.manifest)))
     if not outcome.published:
         print("impactnet sweep: the pick failed the validation gate:\n  "
               + "\n  ".join(outcome.gate.failures), file=sys.stderr)

@@ -1,47 +1,21 @@
 """POST /v1/contact/batch: N pairs, columnar JSON or npz in and out."""
 from __future__ import annotations
 
-import asyncio
-import contextvars
 from typing import Annotated
 
-import numpy as np
-import orjson
 from fastapi import APIRouter, Query, Request
-from pydantic import ValidationError
 from starlette.responses import Response
 
+from impactnet.service import batch_steps as steps
 from impactnet.service.api.deps import RuntimeDep, ServingDep
-from impactnet.service.api.errors import InputError, ServiceError, validation_items
+from impactnet.service.api.errors import ServiceError
 from impactnet.service.api.routers import ERRORS
-from impactnet.service.api.schemas import (
-    BatchOptions,
-    BatchResponse,
-    EulerConvention,
-    Include,
-    Mode,
-)
-from impactnet.service.batch_solve import PAIR_INPUT_BYTES, solve_batch
+from impactnet.service.api.schemas import BatchResponse, EulerConvention, Include, Mode
 from impactnet.service.codecs import columns as col
-from impactnet.service.codecs.answer_encode import (
-    STREAM_ROWS,
-    StreamedJSON,
-    encode_json,
-    encode_npz,
-    json_pieces,
-)
-from impactnet.service.codecs.batch_json import parse_json_batch
-from impactnet.service.codecs.npz import parse_npz
-from impactnet.service.compound_solve import (
-    batch_json,
-    batch_npz,
-    names_compound,
-    solve_compound,
-)
+from impactnet.service.codecs import compound_encode
+from impactnet.service.codecs.answer_encode import StreamedAnswer, json_pieces
 from impactnet.service.limits.body import LEASE
-from impactnet.service.limits.budget import Lease
-from impactnet.service.predictors import ServingState
-from impactnet.service.runtime import Runtime
+from impactnet.service.limits.lanes import Work
 
 router = APIRouter(tags=["contact"])
 
@@ -94,77 +68,6 @@ def _response_type(accept: str | None) -> str:
                        f"{col.JSON}, {col.NPZ}")
 
 
-def _options(query: dict, body: dict) -> BatchOptions:
-    both = sorted(k for k in body if query.get(k) not in (None, []))
-    if both:
-        raise InputError(both[0], "given both in the query string and in the body")
-    merged = {**{k: v for k, v in query.items() if v not in (None, [])}, **body}
-    try:
-        return BatchOptions.model_validate(merged)
-    except ValidationError as exc:
-        first = validation_items(exc.errors())[0]
-        raise InputError(first["field"], first["reason"], type_=first["type"]) from exc
-
-
-def _rows(columns: dict) -> int:
-    """Pairs of a batch: the longest per-pair column (1 if every column is one value)."""
-    rows = 1
-    for name, value in columns.items():
-        if name not in col.COLUMNS or not isinstance(value, np.ndarray):
-            continue  # refused by the validation that follows
-        tail = col.tail_of(name) or ()
-        if value.ndim == len(tail) + 1:
-            rows = max(rows, len(value))
-    return rows
-
-
-def _score(body: bytes, binary_in: bool, answer_type: str, query: dict, state: ServingState,
-           runtime: Runtime, lease: Lease):
-    """The answer: npz or small JSON as bytes, large JSON as the arrays to stream. Runs in a
-    batch worker thread; every step reserves its memory in ``lease`` first."""
-    settings = runtime.settings
-    if binary_in:
-        columns, body_options = parse_npz(body, settings.max_body_bytes,
-                                          settings.max_batch_pairs, lease), {}
-    else:
-        columns, body_options = parse_json_batch(body, settings.max_batch_pairs, lease)
-    options = _options(query, body_options)
-    mode = options.mode or state.default_mode
-    lease.reserve(min(_rows(columns), settings.max_batch_pairs) * PAIR_INPUT_BYTES,
-                  "validating the batch")
-    pairs = col.batch_pairs(columns, state.scene.with_compound, options.euler_convention,
-                            settings.max_batch_pairs)
-    del columns
-    if names_compound(pairs, state.scene):  # the oracle, or the pair's learned chain
-        arrays = solve_compound(pairs, state.scene, settings.max_part_contacts_per_pose,
-                                settings.max_part_contacts_per_batch, state.compound, mode)
-        names, counts = np.unique(arrays["predictor"], return_counts=True)
-        runtime.metrics.record_predictions(mode, dict(zip(names.tolist(), counts.tolist(),
-                                                          strict=True)))
-        if answer_type == col.NPZ:
-            return batch_npz(arrays, mode, state.model_version), mode
-        return orjson.dumps(batch_json(arrays, mode, state.model_version)), mode
-    arrays = solve_batch(state.predictor(mode), pairs, options.include, lease)
-    counts = np.bincount(arrays["predictor_code"], minlength=len(arrays["predictor_names"]))
-    runtime.metrics.record_predictions(mode, dict(zip(arrays["predictor_names"].tolist(),
-                                                      counts.tolist(), strict=True)))
-    runtime.metrics.batch_size.observe(len(pairs))
-    if answer_type == col.NPZ:
-        lease.reserve(2 * sum(a.nbytes for a in arrays.values()), "encoding the npz answer")
-        return encode_npz(arrays, mode, state.model_version), mode
-    if len(pairs) <= STREAM_ROWS:
-        return encode_json(arrays, mode, state.model_version), mode
-    return arrays, mode
-
-
-async def _in_batch_worker(runtime: Runtime, *args):
-    """``_score(*args)`` in the runtime's batch pool (``max_batch_workers`` at a time), with
-    the request's context (its request id) carried over."""
-    context = contextvars.copy_context()
-    loop = asyncio.get_running_loop()
-    return await loop.run_in_executor(runtime.batch_pool, context.run, _score, *args)
-
-
 @router.post(
     "/v1/contact/batch", response_model=None, summary="Contacts of N box pairs",
     openapi_extra={"requestBody": _REQUEST_BODY},
@@ -194,10 +97,19 @@ async def batch(
     body = await request.body()  # read in full by the BodyReader middleware
     lease = request.scope[LEASE]  # released by the BodyReader once the answer is sent
     query = {"mode": mode, "include": include, "euler_convention": euler_convention}
-    answer, mode_used = await _in_batch_worker(runtime, body, content_type == col.NPZ,
-                                               answer_type, query, state, runtime, lease)
+    settings = runtime.settings
+    async with Work(runtime, request.receive) as work:  # deadline, disconnect, lanes
+        parsed = await work.run(steps.parse_cost(body), steps.parse, body,
+                                content_type == col.NPZ, query, settings, lease)
+        admitted = await work.run(parsed.rows, steps.validate, parsed, state, settings, lease)
+        if admitted.plan is not None:  # compound rows: the broadphase counts their work
+            admitted = await work.run(admitted.work, steps.count, admitted, settings, lease)
+        kind, answer = await work.run(admitted.work, steps.solve, admitted, state, runtime,
+                                      answer_type, lease)
     headers = {"X-Model-Version": state.model_version}
-    if isinstance(answer, bytes):
+    if kind == "bytes":
         return Response(answer, media_type=answer_type, headers=headers)
-    return StreamedJSON(json_pieces(answer, mode_used, state.model_version), headers,
-                        runtime.settings.send_timeout_s)
+    pieces = {"box_json": json_pieces, "compound_json": compound_encode.json_pieces,
+              "compound_npz": compound_encode.npz_pieces}[kind]
+    return StreamedAnswer(pieces(answer, admitted.mode, state.model_version), headers,
+                          settings.send_timeout_s, answer_type)

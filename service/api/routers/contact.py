@@ -9,14 +9,23 @@ from starlette.responses import Response
 from impactnet.service.api.deps import get_serving
 from impactnet.service.api.routers import ERRORS
 from impactnet.service.api.schemas import ContactRequest, ContactResponse
+from impactnet.service.codecs.compound_encode import row_json
 from impactnet.service.codecs.json_keys import validated_unique
 from impactnet.service.codecs.pairs import (
     contact_json,
     predict_checked,
     request_pair,
 )
-from impactnet.service.compound_inline import inline_answer
-from impactnet.service.compound_solve import ORACLE, names_compound, row_json, solve_compound
+from impactnet.service.compound_inline import inline_cost, inline_group, part_limits
+from impactnet.service.compound_solve import (
+    CompoundCaps,
+    admit,
+    groups_of_pairs,
+    names_compound,
+    solve,
+)
+from impactnet.service.limits.body import LEASE
+from impactnet.service.limits.lanes import Work
 from impactnet.service.runtime import Runtime
 
 router = APIRouter(tags=["contact"])
@@ -76,20 +85,10 @@ async def contact(request: Request) -> Response:
     else:
         body = await run_in_threadpool(parse_body, raw, content_type)
     mode = body.mode or state.default_mode
-    if body.a.parts is not None or body.b.parts is not None:  # a compound body inline
-        answer = inline_answer(body, state.scene, runtime.settings.max_part_contacts_per_pose)
-        runtime.metrics.record_predictions(mode, {ORACLE: 1})
-        return Response(orjson.dumps(answer | {"mode": mode,
-                                               "model_version": state.model_version}),
-                        media_type="application/json",
-                        headers={"X-Model-Version": state.model_version})
-    pairs = request_pair(body, state.scene.with_compound)
-    if names_compound(pairs, state.scene):  # the oracle, or the pair's learned chain
-        arrays = solve_compound(pairs, state.scene, runtime.settings.max_part_contacts_per_pose,
-                                runtime.settings.max_part_contacts_per_batch, state.compound,
-                                mode)
-        runtime.metrics.record_predictions(mode, {str(arrays["predictor"][0]): 1})
-        answer = row_json(arrays, 0) | {"mode": mode, "model_version": state.model_version}
+    inline = body.a.parts is not None or body.b.parts is not None
+    pairs = None if inline else request_pair(body, state.scene.with_compound)
+    if inline or names_compound(pairs, state.scene):  # the oracle, or the pair's chain
+        answer = await _compound_pair(request, runtime, state, body, pairs, mode)
         return Response(orjson.dumps(answer), media_type="application/json",
                         headers={"X-Model-Version": state.model_version})
     contacts = predict_checked(state.predictor(mode), pairs)
@@ -97,3 +96,31 @@ async def contact(request: Request) -> Response:
     answer = contact_json(contacts, pairs, mode, state.model_version, body.include)
     return Response(orjson.dumps(answer), media_type="application/json",
                     headers={"X-Model-Version": state.model_version})
+
+
+def _admit_pair(body: ContactRequest, pairs, state, settings, lease, mode: str):
+    """(Plan, warnings) of one compound pair: its parts (inline ones built within the
+    limits), its candidates counted and its memory reserved."""
+    if pairs is None:
+        group, notes = inline_group(body, state.scene, part_limits(settings))
+        groups = [group]
+    else:
+        groups, notes = groups_of_pairs(pairs, state.scene, state.compound, mode), []
+    return admit(groups, 1, CompoundCaps.of(settings), lease), notes
+
+
+async def _compound_pair(request: Request, runtime: Runtime, state, body, pairs,
+                         mode: str) -> dict:
+    """The answer of a pair with a compound body: admitted in the small lane, solved in the
+    lane its work chooses, under the request's deadline (:mod:`impactnet.service.limits.
+    lanes`)."""
+    settings, lease = runtime.settings, request.scope[LEASE]
+    build = 0.0 if pairs is not None else inline_cost(body, part_limits(settings))
+    async with Work(runtime, request.receive) as work:
+        plan, notes = await work.run(build, _admit_pair, body, pairs, state, settings, lease,
+                                     mode)
+        arrays = await work.run(plan.work, solve, plan, CompoundCaps.of(settings), mode)
+    predictor = str(arrays.predictor_names[arrays.predictor[0]])
+    runtime.metrics.record_predictions(mode, {predictor: 1})
+    return (row_json(arrays, 0) | ({"warnings": notes} if notes else {})
+            | {"mode": mode, "model_version": state.model_version})

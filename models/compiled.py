@@ -1,0 +1,158 @@
+"""The compiled core's common ground: how a kernel is compiled, where its machine code is cached,
+how many threads run a batch, and how a batch is launched in bounded chunks.
+
+Every hot stage is one numba kernel written as scalar loops over one row (MuJoCo's collider
+style); the same row function serves N = 1 and a million rows:
+
+* :func:`jit` compiles a function with ``cache=True, nogil=True`` and NumPy's error model
+  (a division by zero gives inf, as the NumPy code it replaces did), no fast-math: the
+  kernels must round as the golden answers were rounded. :func:`parallel_jit` adds
+  ``parallel=True`` for the ``prange`` loops over rows of a batch.
+* **Cache**: compiled code is cached on disk, so a process loads it instead of compiling
+  (``IMPACTNET_KERNEL_CACHE_DIR``; default: next to the sources where they are writable, else
+  ``$XDG_CACHE_HOME/impactnet/kernels`` or ``~/.cache/impactnet/kernels``, else a folder in
+  the temporary directory). numba keys the cache by CPU: an image built on one machine and run
+  on another sets ``NUMBA_CPU_NAME=generic`` for both (docker/Dockerfile).
+* **Threads**: ``IMPACTNET_KERNEL_THREADS`` (default: the cores this process may use) threads
+  run a parallel kernel (:func:`set_threads`).
+* **Launches**: parallel kernels are launched one at a time (:func:`launch`, one lock), so any
+  numba threading layer is safe with concurrent callers (the ``workqueue`` layer aborts on
+  concurrent parallel launches), and batch workers times kernel threads never oversubscribe
+  the cores. Serial kernels (N = 1, small batches: fewer than :data:`PARALLEL_MIN_ROWS` rows)
+  run without the lock, in the caller's thread.
+* **Chunks**: a batch is launched :data:`CHUNK_ROWS` rows at a time with a
+  :func:`impactnet.models.work.checkpoint` between chunks (:func:`chunks`), so the service's
+  deadlines and cancellations stop compiled work too.
+* **Warm-up**: a module of kernels registers a function that compiles (or loads) them on small
+  inputs (:func:`on_warm_up`); :func:`warm_up` runs them all, before a server says ready.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+import threading
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+#: Environment variables of the compiled core.
+CACHE_ENV = "IMPACTNET_KERNEL_CACHE_DIR"
+THREADS_ENV = "IMPACTNET_KERNEL_THREADS"
+#: Rows of a batch per launch of a kernel: a few milliseconds of work at most between two
+#: checkpoints, and arrays that stay in the CPU caches.
+CHUNK_ROWS = 16384
+#: Below this many rows a batch runs on the serial kernel: starting the kernel threads costs
+#: more (~10-20 us) than the rows.
+PARALLEL_MIN_ROWS = 256
+
+
+def _writable(folder: Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = tempfile.NamedTemporaryFile(dir=folder, prefix=".write-test-")
+        probe.close()
+        return True
+    except OSError:
+        return False
+
+
+def cache_folder() -> Path | None:
+    """Where compiled code is cached: the setting, else None where numba's own default (next to
+    the sources) is writable, else the first writable user or temporary folder."""
+    given = os.environ.get(CACHE_ENV)
+    if given:
+        return Path(given)
+    if os.access(Path(__file__).resolve().parent, os.W_OK):
+        return None
+    home = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    for folder in (Path(home) / "impactnet" / "kernels",
+                   Path(tempfile.gettempdir()) / f"impactnet-kernels-{os.getuid()}"):
+        if _writable(folder):
+            return folder
+    return None
+
+
+def _configure() -> None:
+    """Set numba's environment before numba is imported (it reads it once)."""
+    folder = cache_folder()
+    if folder is not None and "NUMBA_CACHE_DIR" not in os.environ:
+        folder.mkdir(parents=True, exist_ok=True)
+        os.environ["NUMBA_CACHE_DIR"] = str(folder)
+
+
+_configure()
+
+import numba  # noqa: E402 - after the cache folder is set
+
+_LAUNCH = threading.Lock()
+_WARM_UPS: list[Callable[[], None]] = []
+
+
+def jit(function):
+    """A serial kernel (module docstring)."""
+    return numba.njit(cache=True, nogil=True, error_model="numpy")(function)
+
+
+def parallel_jit(function):
+    """A kernel with ``prange`` loops over rows (module docstring)."""
+    return numba.njit(cache=True, nogil=True, error_model="numpy", parallel=True)(function)
+
+
+def available_cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def set_threads(count: int | None = None) -> int:
+    """Threads of parallel kernels: ``count``, else ``IMPACTNET_KERNEL_THREADS``, else the
+    available cores (at most numba's pool size); returns the number set."""
+    wanted = count or int(os.environ.get(THREADS_ENV) or available_cores())
+    wanted = max(1, min(wanted, numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(wanted)
+    return wanted
+
+
+def launch(kernel, *args):
+    """Run a parallel kernel, one launch at a time in the process (module docstring)."""
+    with _LAUNCH:
+        return kernel(*args)
+
+
+def chunks(n: int, rows: int = CHUNK_ROWS) -> Iterator[tuple[int, int]]:
+    """``(start, stop)`` of consecutive chunks of ``n`` rows, checking the calling context's
+    work limit before each (:func:`impactnet.models.work.checkpoint`)."""
+    from impactnet.models.work import checkpoint
+
+    for start in range(0, n, rows):
+        checkpoint()
+        yield start, min(n, start + rows)
+
+
+def on_warm_up(function: Callable[[], None]) -> Callable[[], None]:
+    """Register ``function`` (no arguments: compiles or loads a module's kernels)."""
+    _WARM_UPS.append(function)
+    return function
+
+
+def warm_up() -> int:
+    """Compile or load every registered kernel (importing the modules that hold them);
+    returns how many warm-ups ran."""
+    import importlib
+
+    for module in KERNEL_MODULES:
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:  # a wing without kernels yet
+            if exc.name != module:
+                raise
+    for function in _WARM_UPS:
+        function()
+    return len(_WARM_UPS)
+
+
+#: The modules that hold kernels (imported by :func:`warm_up`, which runs their warm-ups): each
+#: registers its warm-up with :func:`on_warm_up` when imported.
+KERNEL_MODULES = ("impactnet.models.box.kernels", "impactnet.models.compound.kernels",
+                  "impactnet.models.learned.kernels")

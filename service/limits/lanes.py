@@ -1,0 +1,120 @@
+"""Where and for how long a request computes: two lanes of worker threads, a deadline, and the
+client's disconnect.
+
+* **Lanes.** Work whose admitted cost is at most ``small_work_max`` box-pair solves (a small
+  batch, one compound pair) runs in the *small* lane, a thread of its own; anything larger in
+  the *large* lane (``max_batch_workers`` threads). Two large batches therefore never hold up a
+  10-pair batch: it waits for at most the small work ahead of it, never for a large one.
+* **Deadline.** Each request gets a :class:`impactnet.models.work.WorkLimit` that expires
+  ``compute_deadline_s`` after its body arrived; the solvers check it between chunks and stop
+  (:class:`impactnet.models.work.WorkStopped`), and the request answers 504
+  ``deadline_exceeded``.
+* **Disconnect.** While a request computes, its client's connection is watched; when the client
+  goes away the same limit is cancelled, and the work stops at its next chunk.
+
+A request's steps (parse, admit, solve) may run in different lanes one after another, each
+chosen by what is known of the cost at that step (:meth:`Work.run`).
+"""
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import contextvars
+from concurrent.futures import ThreadPoolExecutor
+
+from starlette.types import Receive
+
+from impactnet.models.work import CANCELLED, WorkLimit, WorkStopped, limited
+from impactnet.service.api.errors import DeadlineExceeded, ServiceError
+
+#: Threads of the small-work lane: one, so that small work never competes with itself for
+#: the two cores, and the large lane keeps its `max_batch_workers`.
+SMALL_LANE_THREADS = 1
+
+
+class ClientGone(ServiceError):
+    """The client disconnected and its work was stopped: nobody reads this answer (499, as
+    nginx logs a closed request)."""
+
+    def __init__(self) -> None:
+        super().__init__(499, "client_closed_request", "the client went away; its work was "
+                         "stopped")
+
+
+class Lanes:
+    """The two pools of worker threads (module docstring)."""
+
+    def __init__(self, large_threads: int, small_work_max: int) -> None:
+        self.large = ThreadPoolExecutor(large_threads, thread_name_prefix="impactnet-batch")
+        self.small = ThreadPoolExecutor(SMALL_LANE_THREADS, thread_name_prefix="impactnet-small")
+        self.small_work_max = small_work_max
+
+    def for_cost(self, cost: float) -> ThreadPoolExecutor:
+        """The lane of work that costs ``cost`` box-pair solves."""
+        return self.small if cost <= self.small_work_max else self.large
+
+    def shutdown(self) -> None:
+        for pool in (self.small, self.large):
+            pool.shutdown(wait=False, cancel_futures=True)
+
+
+async def _watch_disconnect(receive: Receive, limit: WorkLimit) -> None:
+    """Cancel ``limit`` when the client disconnects (the body has been read already, so the
+    next message the server gives is the disconnect)."""
+    while True:
+        message = await receive()
+        if message["type"] == "http.disconnect":
+            limit.cancel()
+            return
+
+
+class Work:
+    """The computing steps of one request: one deadline, one disconnect watcher.
+
+    Parameters
+    ----------
+    runtime : impactnet.service.runtime.Runtime
+        Its lanes, settings and metrics.
+    receive : callable
+        The request's ASGI ``receive`` (the watcher awaits its disconnect).
+    """
+
+    def __init__(self, runtime, receive: Receive) -> None:
+        self.runtime = runtime
+        self.limit = WorkLimit.after(runtime.settings.compute_deadline_s)
+        self._receive = receive
+        self._watcher: asyncio.Task | None = None
+
+    async def __aenter__(self) -> Work:
+        self._watcher = asyncio.create_task(_watch_disconnect(self._receive, self.limit))
+        return self
+
+    async def __aexit__(self, *exc) -> None:
+        if self._watcher is not None and not self._watcher.done():
+            self._watcher.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._watcher
+
+    async def run(self, cost: float, function, *args):
+        """``function(*args)`` in the lane for ``cost``, under the request's limit and with
+        its context (the request id); 504 past the deadline, :class:`ClientGone` when the
+        client left."""
+        limit = self.limit
+        context = contextvars.copy_context()
+
+        def call():
+            with limited(limit):
+                return function(*args)
+
+        loop = asyncio.get_running_loop()
+        try:
+            return await loop.run_in_executor(self.runtime.lanes.for_cost(cost), context.run,
+                                              call)
+        except WorkStopped as exc:
+            metrics = self.runtime.metrics
+            if exc.reason == CANCELLED:
+                metrics.cancelled.labels("client_disconnected").inc()
+                raise ClientGone() from None
+            metrics.deadline_exceeded.inc()
+            raise DeadlineExceeded(exc.seconds, self.runtime.settings.compute_deadline_s) \
+                from None
