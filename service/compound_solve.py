@@ -152,6 +152,35 @@ def reachable(pairs: PairInputs, scene: SceneView) -> np.ndarray:
     return np.linalg.norm(centre_b - centre_a, axis=1) <= reach
 
 
+def _split(rows: np.ndarray, keys: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``rows`` grouped by equal ``keys`` rows ((k, w) floats): (rows of a group, its key)."""
+    if len(rows) == 1 or not (keys != keys[0]).any():
+        return [(rows, keys[0])]
+    unique, inverse = np.unique(keys, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(len(unique) + 1))
+    return [(rows[order[bounds[g]:bounds[g + 1]]], unique[g]) for g in range(len(unique))]
+
+
+def _keyed_rows(pairs: PairInputs, rows: np.ndarray, n: int):
+    """(rows, key) of each distinct pair of bodies among ``rows``; key = (object_a, object_b,
+    size_a (3,), size_b (3,)). Scene objects are grouped by their indices (one integer
+    comparison), raw sizes by their values."""
+    objects = np.stack([_column(pairs.object_a, n)[rows], _column(pairs.object_b, n)[rows]],
+                       axis=1).astype(np.float64)
+    out = []
+    for part, key in _split(rows, objects):
+        if key.min() >= 0:  # both named: the sizes follow from the names
+            size_a, size_b = (_column(c, n)[part[0]] for c in (pairs.size_a, pairs.size_b))
+            out.append((part, np.concatenate([key, size_a, size_b])))
+            continue
+        sizes = np.concatenate([_column(pairs.size_a, n)[part], _column(pairs.size_b, n)[part]],
+                               axis=1)
+        out += [(sub, np.concatenate([key, size])) for sub, size in _split(part, sizes)]
+    return out
+
+
 def groups_of_pairs(pairs: PairInputs, scene: SceneView, chains: dict | None,
                     mode: str) -> list[Group]:
     """The groups of the rows that can touch (module docstring, step 1)."""
@@ -159,13 +188,8 @@ def groups_of_pairs(pairs: PairInputs, scene: SceneView, chains: dict | None,
     rows = np.flatnonzero(reachable(pairs, scene))
     if not len(rows):
         return []
-    columns = [_column(c, n)[rows].reshape(len(rows), -1).astype(np.float64)
-               for c in (pairs.object_a, pairs.object_b, pairs.size_a, pairs.size_b)]
-    keys, inverse = np.unique(np.concatenate(columns, axis=1), axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
     groups = []
-    for g, key in enumerate(keys):
-        take = rows[inverse == g]
+    for take, key in _keyed_rows(pairs, rows, n):
         poses = tuple(_column(c, n)[take] for c in (pairs.position_a, pairs.quaternion_a,
                                                     pairs.position_b, pairs.quaternion_b))
         groups.append(Group(take, scene.parts_of(int(key[0]), key[2:5]),

@@ -13,6 +13,7 @@ import socket
 import time
 from importlib.metadata import PackageNotFoundError, version
 
+from impactnet.models import compiled
 from impactnet.service.limits.budget import MemoryBudget
 from impactnet.service.limits.lanes import Lanes
 from impactnet.service.limits.saturation import Saturation
@@ -71,7 +72,8 @@ class Runtime:
         self.uploads = Uploads(settings.body_timeout_s)
         # Work off the event loop: the small lane (one thread) and the large one
         # (max_batch_workers threads), chosen by each step's admitted cost (limits.lanes).
-        self.lanes = Lanes(settings.max_batch_workers, settings.small_work_max)
+        self.lanes = Lanes(settings.max_batch_workers, settings.small_work_max,
+                           settings.max_queued_large_work)
         # freed memory given back after large requests (limits.trim)
         self.trimmer = Trimmer()
 
@@ -117,6 +119,11 @@ class Runtime:
                 ",".join(state.modes))
 
     def _build(self, prebuilt: ServingState | None) -> ServingState:
+        started = time.perf_counter()
+        compiled.set_threads(self.settings.kernel_threads)
+        kernels = compiled.warm_up()  # compiled (or loaded from the cache) before ready
+        log.info("kernels ready", extra={"warm_ups": kernels,
+                                         "seconds": round(time.perf_counter() - started, 3)})
         state = prebuilt or build_state(self.settings)
         warm_up(state)
         return state

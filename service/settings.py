@@ -87,6 +87,11 @@ class Settings(BaseSettings):
     # request's candidate part pairs weighted by their hulls' sizes) runs in the small-work
     # lane, its own worker thread, so that it never waits behind large batches.
     small_work_max: int = Field(4096, ge=1)
+    # Steps of large requests that may wait for a large-lane thread (`max_batch_workers`); one
+    # more is refused at once with 503 `overloaded` (Retry-After; a fleet's front sends it to
+    # another replica) rather than waiting past its deadline. 4: with 2 workers, a request
+    # waits behind at most two rounds of large work.
+    max_queued_large_work: int = Field(4, ge=0)
     # Inline compound bodies (`parts` in a request): most parts in one body.
     max_inline_parts: int = Field(128, ge=1)
     # Inline parts: most sides of a `frustum` (the shipped twistlock heads have 8-256).
@@ -154,3 +159,12 @@ class Settings(BaseSettings):
     # Load the scene / bundle and warm up in the background, so /healthz answers at once and
     # /readyz says 503 until ready. False: load before the first request is served.
     load_in_background: bool = True
+    # Threads of the compiled kernels' parallel loops (one parallel launch at a time per
+    # process: models/compiled.py). None: the cores this process may use; a fleet sets it per
+    # replica (docker/compose.yaml: 1 per replica limited to one core).
+    kernel_threads: int | None = Field(None, ge=1, le=256)
+    # Folder of the compiled kernels' cache (IMPACTNET_KERNEL_CACHE_DIR, read when the kernels
+    # are first imported, so environment only). None: next to the sources where writable, else
+    # a user or temporary folder (models/compiled.py). An image builds it ahead
+    # (docker/Dockerfile) so that a read-only container never compiles.
+    kernel_cache_dir: str | None = None

@@ -29,6 +29,7 @@ to the server, which reports a disconnect), and finds the lease at ``scope[LEASE
 from __future__ import annotations
 
 import asyncio
+import time
 
 from starlette.types import Message, Receive, Scope, Send
 
@@ -81,6 +82,7 @@ class BodyReader(Middleware):
             await self.app(scope, receive, send)
             return
         lease = scope[LEASE] = Lease(self.runtime.budget)
+        started = time.monotonic()
         try:
             declared = header(scope, b"content-length")
             if not _has_body(scope, declared):
@@ -107,7 +109,7 @@ class BodyReader(Middleware):
             await self.app(scope, replay, send)
         finally:
             lease.release()
-            self.runtime.trimmer.released(lease.peak)
+            self.runtime.trimmer.released(lease.peak, time.monotonic() - started)
 
     async def _too_large(self, send: Send, limit: int, rest=None) -> None:
         """The 413; with ``rest`` (receive, bytes read, bytes declared or None), the rest of

@@ -25,7 +25,7 @@ from concurrent.futures import ThreadPoolExecutor
 from starlette.types import Receive
 
 from impactnet.models.work import CANCELLED, WorkLimit, WorkStopped, limited
-from impactnet.service.api.errors import DeadlineExceeded, ServiceError
+from impactnet.service.api.errors import DeadlineExceeded, Overloaded, ServiceError
 
 #: Threads of the small-work lane: one, so that small work never competes with itself for
 #: the two cores, and the large lane keeps its `max_batch_workers`.
@@ -42,12 +42,15 @@ class ClientGone(ServiceError):
 
 
 class Lanes:
-    """The two pools of worker threads (module docstring)."""
+    """The two pools of worker threads (module docstring); at most ``max_queued`` steps wait
+    for the large lane (more: 503 before they start, so that a burst of large requests is
+    refused, and a front sends them elsewhere, instead of waiting past its deadline)."""
 
-    def __init__(self, large_threads: int, small_work_max: int) -> None:
+    def __init__(self, large_threads: int, small_work_max: int, max_queued: int) -> None:
         self.large = ThreadPoolExecutor(large_threads, thread_name_prefix="impactnet-batch")
         self.small = ThreadPoolExecutor(SMALL_LANE_THREADS, thread_name_prefix="impactnet-small")
-        self.small_work_max = small_work_max
+        self.small_work_max, self.max_queued = small_work_max, max_queued
+        self.waiting = 0  # steps submitted to the large lane and not started (event loop only)
 
     def for_cost(self, cost: float) -> ThreadPoolExecutor:
         """The lane of work that costs ``cost`` box-pair solves."""
@@ -97,19 +100,24 @@ class Work:
 
     async def run(self, cost: float, function, *args):
         """``function(*args)`` in the lane for ``cost``, under the request's limit and with
-        its context (the request id); 504 past the deadline, :class:`ClientGone` when the
-        client left."""
-        limit = self.limit
+        its context (the request id); 503 when the large lane's queue is full, 504 past the
+        deadline, :class:`ClientGone` when the client left."""
+        limit, lanes = self.limit, self.runtime.lanes
         context = contextvars.copy_context()
+        pool = lanes.for_cost(cost)
+        step = {"waiting": pool is lanes.large}  # in the large lane's queue, not started
+        if step["waiting"] and lanes.waiting >= lanes.max_queued:
+            raise self._queue_full()
+        loop = asyncio.get_running_loop()
 
         def call():
+            loop.call_soon_threadsafe(self._left_queue, step)
             with limited(limit):
                 return function(*args)
 
-        loop = asyncio.get_running_loop()
+        lanes.waiting += step["waiting"]
         try:
-            return await loop.run_in_executor(self.runtime.lanes.for_cost(cost), context.run,
-                                              call)
+            return await loop.run_in_executor(pool, context.run, call)
         except WorkStopped as exc:
             metrics = self.runtime.metrics
             if exc.reason == CANCELLED:
@@ -118,3 +126,19 @@ class Work:
             metrics.deadline_exceeded.inc()
             raise DeadlineExceeded(exc.seconds, self.runtime.settings.compute_deadline_s) \
                 from None
+        finally:
+            self._left_queue(step)
+
+    def _left_queue(self, step: dict) -> None:
+        """A step left the large lane's queue (it started, or it ended without running):
+        counted once, on the event loop."""
+        if step["waiting"]:
+            step["waiting"] = False
+            self.runtime.lanes.waiting -= 1
+
+    def _queue_full(self) -> Overloaded:
+        runtime = self.runtime
+        runtime.metrics.rejected.labels("large_work_queue").inc()
+        runtime.saturation.refused()
+        return Overloaded(f"{runtime.lanes.max_queued} large requests are waiting for a "
+                          "worker already; retry", runtime.settings.retry_after_s)

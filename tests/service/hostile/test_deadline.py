@@ -129,6 +129,48 @@ def test_a_small_batch_is_answered_while_the_large_lane_is_held(make_client, mon
             thread.join(60)
 
 
+def test_large_work_past_the_queue_is_503_before_it_starts(make_client, monkeypatch):
+    client = make_client(scene="quay_crane_detail", max_batch_workers=1,
+                         max_queued_large_work=1)
+    held, release = threading.Semaphore(0), threading.Event()
+    solve = batch_steps.solve
+
+    def holding(admitted, *args):
+        if admitted.work > client.app.state.runtime.settings.small_work_max:
+            held.release()
+            release.wait(30)
+        return solve(admitted, *args)
+
+    monkeypatch.setattr(batch_steps, "solve", holding)
+    answers = []
+
+    def large():
+        answers.append(client.post("/v1/contact/batch", content=_containers(2_000),
+                                   headers=NPZ).status_code)
+
+    running = threading.Thread(target=large)
+    running.start()
+    try:
+        assert held.acquire(timeout=30)  # the one large thread is held
+        waiting = threading.Thread(target=large)
+        waiting.start()
+        lanes = client.app.state.runtime.lanes
+        for _ in range(300):  # the second one's solve step waits in the queue
+            if lanes.waiting == 1:
+                break
+            time.sleep(0.01)
+        assert lanes.waiting == 1
+        refused = client.post("/v1/contact/batch", content=_containers(2_000), headers=NPZ)
+        assert_error(refused, 503, error="overloaded")
+        assert refused.headers["retry-after"]
+        assert 'reason="large_work_queue"} 1.0' in client.get("/metrics").text
+    finally:
+        release.set()
+        running.join(60)
+        waiting.join(60)
+    assert answers == [200, 200]
+
+
 def test_an_oversized_body_sent_whole_gets_its_413(server):
     """http.client sends the whole body before it reads the answer: the 413 must reach it
     (not a reset connection)."""

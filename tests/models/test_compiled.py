@@ -1,0 +1,84 @@
+"""The compiled core's common ground (models/compiled.py): chunks stop at the work limit,
+parallel launches are safe from many threads at once, the cache folder is writable wherever
+the package is installed, warm-ups run once registered."""
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from impactnet.models import compiled
+from impactnet.models.work import WorkLimit, WorkStopped, limited
+
+
+@compiled.parallel_jit
+def _row_sums(values, out):
+    for i in compiled.numba.prange(values.shape[0]):
+        total = 0.0
+        for j in range(values.shape[1]):
+            total += values[i, j] * values[i, j]
+        out[i] = total
+
+
+def test_chunks_cover_every_row_once_in_order():
+    assert list(compiled.chunks(10, 4)) == [(0, 4), (4, 8), (8, 10)]
+    assert list(compiled.chunks(0, 4)) == []
+
+
+def test_chunks_stop_when_the_work_limit_is_cancelled():
+    limit = WorkLimit()
+    seen = []
+    with limited(limit), pytest.raises(WorkStopped) as stopped:
+        for start, _ in compiled.chunks(100, 10):
+            seen.append(start)
+            if start == 20:
+                limit.cancel()
+    assert seen == [0, 10, 20] and stopped.value.reason == "cancelled"
+
+
+def test_eight_threads_launching_parallel_kernels_at_once_get_the_serial_answers():
+    values = np.random.default_rng(0).normal(size=(20_000, 16))
+    expected = (values * values).sum(axis=1)
+    results, errors = [None] * 8, []
+
+    def run(k: int) -> None:
+        try:
+            out = np.empty(len(values))
+            for _ in range(5):
+                compiled.launch(_row_sums, values, out)
+            results[k] = out
+        except Exception as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(8)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(60)
+    assert not errors
+    for out in results:
+        np.testing.assert_allclose(out, expected, rtol=1e-13)
+
+
+def test_the_cache_folder_is_the_setting_else_a_writable_user_folder(monkeypatch, tmp_path):
+    monkeypatch.setenv(compiled.CACHE_ENV, str(tmp_path / "given"))
+    assert compiled.cache_folder() == tmp_path / "given"
+    monkeypatch.delenv(compiled.CACHE_ENV)
+    monkeypatch.setattr(compiled.os, "access", lambda path, mode: False)  # a read-only install
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    assert compiled.cache_folder() == tmp_path / "cache" / "impactnet" / "kernels"
+
+
+def test_thread_counts_stay_within_numba_s_pool():
+    try:
+        assert compiled.set_threads(1) == 1
+        assert compiled.set_threads(10_000) == compiled.numba.config.NUMBA_NUM_THREADS
+    finally:
+        compiled.set_threads()
+
+
+def test_warm_up_runs_every_registered_warm_up(monkeypatch):
+    calls = []
+    monkeypatch.setattr(compiled, "_WARM_UPS", [lambda: calls.append(1)])
+    assert compiled.warm_up() == 1 and calls == [1]
