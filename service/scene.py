@@ -32,6 +32,7 @@ class SceneView:
     compound_names: tuple[str, ...] = ()  # bodies made of parts (sorted)
     compound_parts: dict = field(default_factory=dict)  # name -> parts of a compound body
     compound_sizes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # envelopes
+    bodies: dict = field(default_factory=dict)  # name -> what GET /v1/models shows of it
 
     def __post_init__(self) -> None:
         self.sizes.setflags(write=False)
@@ -66,7 +67,8 @@ class SceneView:
         if not self.compound_names:
             return self
         return SceneView(self.name, self.hash, self.object_names + self.compound_names,
-                         np.concatenate([self.sizes, self.compound_sizes]), self.pairs)
+                         np.concatenate([self.sizes, self.compound_sizes]), self.pairs,
+                         bodies=self.bodies)
 
     def parts_of(self, index: int, size) -> tuple:
         """The parts of object ``index`` of :meth:`with_compound` (a box object or a raw
@@ -87,6 +89,7 @@ class SceneView:
             "objects": {n: s for n, s in zip(self.object_names, self.sizes.tolist(), strict=True)},
             "pairs": [list(p) for p in self.pairs],
             "compound_objects": list(self.compound_names),
+            "bodies": self.bodies,
         }
 
 
@@ -102,9 +105,39 @@ def _bodies_of(scene) -> tuple[dict, dict]:
     return {str(b.name): b.size for b in items if str(b.name) not in compound}, compound
 
 
+def _rounded(values) -> list[float]:
+    """Coordinates for a client to read (micrometres)."""
+    return [round(float(v), 6) for v in values]
+
+
+def describe_body(body) -> dict:
+    """What a client sees of a scene body: a box's size; a compound body's envelope, how it
+    was made (generator and detail) and every part with its group, kind and bounds in the
+    body's frame (whose origin is the body's ``position``)."""
+    from impactnet.models.compound.parts import BoxPart, bounds
+    from impactnet.models.scene_bodies import part_group
+
+    out = {"description": getattr(body, "description", "")}
+    if not getattr(body, "is_compound", False):
+        return {"kind": "box", "size": _rounded(body.size)} | out
+    parts = []
+    for part in body.parts:
+        lo, hi = bounds(part)
+        parts.append({"name": part.name, "group": part_group(part.name),
+                      "kind": "box" if isinstance(part, BoxPart) else "convex",
+                      "lo": _rounded(lo), "hi": _rounded(hi)})
+    lo = np.min([p["lo"] for p in parts], axis=0)
+    hi = np.max([p["hi"] for p in parts], axis=0)
+    made = {k: v for k, v in (body.spec or {}).items() if k != "parts"}
+    return {"kind": "compound", "envelope": {"lo": _rounded(lo), "hi": _rounded(hi)},
+            "origin": "the body frame's origin is the body's `position`; parts' bounds are in "
+                      "that frame", "made_by": made, "parts": parts} | out
+
+
 def view_of(scene) -> SceneView:
     """A :class:`SceneView` of a ``impactnet.models.scenes.Scene``."""
     bodies, compound = _bodies_of(scene)
+    items = list(scene.bodies.values() if isinstance(scene.bodies, dict) else scene.bodies)
     names = tuple(sorted(bodies))
     sizes = np.array([np.asarray(bodies[n], dtype=np.float64).reshape(3) for n in names],
                      dtype=np.float64).reshape(-1, 3)
@@ -114,7 +147,8 @@ def view_of(scene) -> SceneView:
                      sizes=sizes, pairs=pairs, compound_names=compound_names,
                      compound_parts={n: compound[n].parts for n in compound_names},
                      compound_sizes=np.array([compound[n].size for n in compound_names],
-                                             np.float64).reshape(-1, 3))
+                                             np.float64).reshape(-1, 3),
+                     bodies={str(b.name): describe_body(b) for b in items})
 
 
 def load_scene_view(name_or_path: str | None) -> SceneView:

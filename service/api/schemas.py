@@ -295,8 +295,12 @@ class ModelsResponse(BaseModel):
     model_version: str
     conventions: Conventions
     modes: ModesInfo
-    scene: dict | None = Field(description="name, hash, objects (name -> size), pairs; "
-                               "null when no scene is loaded.")
+    scene: dict | None = Field(description="name, hash, objects (box bodies: name -> size), "
+                               "compound_objects (names), pairs, and bodies: name -> {kind "
+                               "(box | compound), description; a box's size; a compound "
+                               "body's envelope {lo, hi}, origin, made_by (generator and "
+                               "detail) and parts [{name, group, kind, lo, hi}] in the body's "
+                               "frame}; null when no scene is loaded.")
     bundle: dict | None = Field(description="The learned bundle: name (its folder), version, "
                                 "scene (name, "
                                 "hash), created_utc, files (SHA-256), pairs (sizes, modes, "

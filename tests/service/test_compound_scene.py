@@ -122,3 +122,24 @@ def test_a_bad_inline_part_is_a_422_naming_its_field(client, part, field, reason
     body = _inline_pair([{"name": "block", "box": {"size": [0.2, 0.2, 0.1]}}, part])
     answer = assert_error(client.post("/v1/contact", json=body), 422, field=field)
     assert reason in answer["message"]
+
+
+def test_models_describes_every_body_with_its_parts(detail):
+    bodies = detail.get("/v1/models").json()["scene"]["bodies"]
+    spreader = bodies["spreader"]
+    assert spreader["kind"] == "compound" and spreader["made_by"]["sides"] == 32
+    heads = [p for p in spreader["parts"] if p["group"].startswith("head_")]
+    assert len(heads) == 4 and all(p["kind"] == "convex" for p in heads)
+    for part in spreader["parts"]:  # bounds inside the envelope
+        assert all(lo >= e - 1e-9 for lo, e in zip(part["lo"], spreader["envelope"]["lo"]))
+    container = bodies["container40"]
+    assert container["made_by"]["detail"] == 2
+    assert {p["group"] for p in container["parts"]} >= {"casting_top_fl", "casting_bottom_ar"}
+    assert "quay_crane" in container["description"]  # the name means a box there
+
+
+def test_models_describes_a_box_body_by_its_size(client):
+    bodies = client.get("/v1/models").json()["scene"]["bodies"]
+    assert bodies["container40"]["kind"] == "box"
+    assert bodies["container40"]["size"] == [12.192, 2.438, 2.591]
+    assert "quay_crane_detail" in bodies["container40"]["description"]
