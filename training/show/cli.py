@@ -2,8 +2,11 @@
 
     impactnet show --scene quay_crane_detail --pair container40/container40 [--seed 0]
                    [--depth-mm 1] [--out show/]
+    impactnet show --scene quay_crane_detail --labels spreader [--out docs/images]
 
-Writes ``<out>/<a>_<b>_seed<seed>.png`` and ``.glb`` and prints a one-line summary.
+The first form writes ``<out>/<a>_<b>_seed<seed>.png`` and ``.glb`` and prints a one-line
+summary; the second draws a body's parts with their names (``<out>/parts_<body>.png``,
+:mod:`impactnet.training.show.labels`).
 """
 from __future__ import annotations
 
@@ -17,17 +20,48 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the `show` options to ``parser``."""
     parser.add_argument("--scene", default="quay_crane_detail", help="scene name or .toml path "
                         "(default: quay_crane_detail)")
-    parser.add_argument("--pair", required=True, help="the pair as A/B body names, e.g. "
+    parser.add_argument("--pair", help="the pair as A/B body names, e.g. "
                         "container40/container40")
+    parser.add_argument("--labels", metavar="BODY", help="draw this body's parts with their "
+                        "names instead of a pose")
     parser.add_argument("--seed", type=int, default=0, help="pose seed (default: 0)")
     parser.add_argument("--depth-mm", type=float, default=1.0,
                         help="push past the first contact, millimetres (default: 1)")
     parser.add_argument("--out", default="show", help="output folder (default: show/)")
 
 
-def run(args: argparse.Namespace) -> int:
-    """Draw the pose; returns the exit status."""
+def _labels(args: argparse.Namespace) -> int:
     from pathlib import Path
+
+    from impactnet.models.scenes import SceneError, load_scene
+    from impactnet.training.show.labels import write_labels
+    from impactnet.training.show.pose import body_parts
+
+    try:
+        scene = load_scene(args.scene)
+        parts = body_parts(scene, args.labels)
+    except (SceneError, ValueError) as exc:
+        print(f"impactnet show: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    spec = scene.body(args.labels).spec or {}
+    detail = ", ".join(f"{k} {v}" for k, v in spec.items() if k != "parts") or "parts"
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"parts_{args.labels}.png"
+    groups = write_labels(path, args.labels, parts, detail)
+    print(f"wrote {path} ({groups} part groups of {args.labels} in scene {scene.name})")
+    return EXIT_OK
+
+
+def run(args: argparse.Namespace) -> int:
+    """Draw the pose (or a body's labelled parts); returns the exit status."""
+    from pathlib import Path
+
+    if args.labels:
+        return _labels(args)
+    if not args.pair:
+        print("impactnet show: give --pair A/B or --labels BODY", file=sys.stderr)
+        return EXIT_USAGE
 
     import numpy as np
 

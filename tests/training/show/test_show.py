@@ -55,3 +55,25 @@ def test_the_same_seed_draws_the_same_pose(tmp_path, capsys):
 def test_an_unknown_pair_is_a_usage_error(tmp_path, capsys):
     assert _run(tmp_path, "--pair", "box40/crane") == cli.EXIT_USAGE
     assert "crane" in capsys.readouterr().err
+
+
+def test_labels_draw_a_body_s_part_groups_by_name(tmp_path, capsys):
+    matplotlib = pytest.importorskip("matplotlib")
+    assert _run(tmp_path, "--labels", "box40") == cli.EXIT_OK
+    assert "9 part groups of box40" in capsys.readouterr().out  # body, 8 castings (detail 1)
+    image = matplotlib.image.imread(tmp_path / "out" / "parts_box40.png")
+    assert image.shape[0] > 100 and image.std() > 0
+
+
+def test_labels_name_what_a_view_from_above_shows():
+    from impactnet.models.compound import container
+    from impactnet.training.show.labels import _visible_from_above, group_bounds
+
+    shown = _visible_from_above(group_bounds(container("40ft", detail=2)))
+    assert {"casting_top_fl", "casting_top_ar"} <= set(shown)
+    assert not any(g.startswith("casting_bottom") for g in shown)  # hidden under the tops
+
+
+def test_neither_a_pair_nor_labels_is_a_usage_error(tmp_path, capsys):
+    assert _run(tmp_path) == cli.EXIT_USAGE
+    assert "--pair" in capsys.readouterr().err
