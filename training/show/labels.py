@@ -87,8 +87,8 @@ def write_labels(path, name: str, parts, detail: str) -> int:
           "from above (x right, y up): the groups seen from above")
     near_end = [g for g, (lo, hi) in groups.items()
                 if g not in UNLABELLED and hi[0] > top - ZOOM_M and lo[1] + hi[1] >= 0.0]
-    _draw(side, groups, 0, 2, near_end, f"from the side (x right, z up), the +x end, the +y "
-          f"(l) side's groups", window=(top - ZOOM_M, top))
+    _draw(side, groups, 0, 2, near_end, "from the side (x right, z up), the +x end, the +y "
+          "(l) side's groups", window=(top - ZOOM_M, top))
     fig.suptitle(f"{name} ({detail}): {len(parts)} parts in {len(groups)} groups; "
                  "corners f/a = +x/-x, l/r = +y/-y", fontsize=10)
     fig.tight_layout()
