@@ -17,6 +17,9 @@ paper       the paper's Section II grid estimate, checked against the polygon sw
 report      Markdown tables and JSON
 plots       the Pareto plot, the polygon sweep against n, Figure 2 errors against the tilt
 http        the same through the HTTP service (``--http``), on loopback
+speed/      speed as ratios against MuJoCo called from Python, and the per-stage profile
+            (issue #32; the speed section of the report, ``impactnet bench speed`` alone, and
+            the MuJoCo columns of ``impactnet bench compound``)
 
 Nothing here is imported by the package itself, so importing ``impactnet.training.bench`` stays
 cheap.

@@ -5,6 +5,7 @@
     impactnet bench exact [--quick] [--json PATH] [--seed 0] [--baseline DIR]
     impactnet bench compound [--quick] [--out DIR] [--plot PNG] [--seed 1]
     impactnet bench hostile [--quick] [--out DIR] [--scene quay_crane_detail]
+    impactnet bench speed [--quick] [--out DIR] [--seed 0] [--scene quay_crane]
 
 The first form measures the exact solver, python-fcl's Box-Box, the paper's polygon method at
 each grid size and the learned predictors (``models.load_predictor``; "not available: <reason>"
@@ -16,7 +17,10 @@ and writes ``results.md``, ``results.json``, ``pareto.png``, ``polygon_grid.png`
 :mod:`impactnet.training.bench`. The second form is the exact solver's own benchmark
 (:mod:`impactnet.training.bench.exact`). The third is the compound bodies' benchmark: the
 exact compound oracle's cost against detail next to FCL and MuJoCo, with issue #20's goals
-(:mod:`impactnet.training.bench.compound_detail`).
+(:mod:`impactnet.training.bench.compound_detail`). The first form ends with the speed section
+(issue #32): box pairs against MuJoCo called from Python and the per-stage profile
+(:mod:`impactnet.training.bench.speed`); ``speed`` runs that section alone and writes
+``speed.md`` and ``speed.json`` into ``--out``.
 
 ``impactnet/cli.py`` calls :func:`add_arguments` on its ``bench`` subparser and :func:`run`
 with the parsed arguments. Without that wiring: ``python -m impactnet.training.bench.cli [...]``.
@@ -109,6 +113,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     hostile.add_argument("--quick", action="store_true", help="a tenth of the rows")
     hostile.add_argument("--out", metavar="DIR", help="write hostile.md there")
     hostile.add_argument("--scene", default="quay_crane_detail", help="scene name or path")
+    speed = sub.add_parser(
+        "speed", help="box_box and the stage profile against MuJoCo called from Python "
+                      "(issue #32), alone",
+        description="The speed section of `impactnet bench` alone: box_box at N = 1 against "
+                    "MuJoCo's one pair from Python, a batch against MuJoCo's C rate (1,000 "
+                    "explicit pairs per mj_collision) on all cores and one thread, on the "
+                    "scene's first contacts and the stacking families, and the per-stage "
+                    "profile of the box solver and the compound oracle.")
+    speed.add_argument("--quick", action="store_true", help="the smoke plan (well under a "
+                       "minute)")
+    speed.add_argument("--out", default=DEFAULT_OUT, help="folder of speed.md and speed.json "
+                       f"(default {DEFAULT_OUT})")
+    speed.add_argument("--seed", type=int, default=0, help="pose seed (default 0)")
+    speed.add_argument("--scene", default="quay_crane", help="scene name or TOML path")
     decide = sub.add_parser(
         "decide", help="per pair of a box scene: exact-only or learned, by issue #21's rule",
         description="Per pair of a box scene: the exact solver and the bundle's auto mode "
@@ -167,6 +185,11 @@ def run(args: argparse.Namespace) -> int:
                          bundle=args.bundle, seed=args.seed)
         run_decide(config, args.out)
         return 0
+    if getattr(args, "bench_command", None) == "speed":
+        from impactnet.training.bench.speed.section import run as run_speed
+
+        return run_speed(quick=args.quick, out=Path(args.out), seed=args.seed,
+                         scene=args.scene)
     if getattr(args, "bench_command", None) == "exact":
         from impactnet.training.bench.exact import run as run_exact
 

@@ -59,14 +59,20 @@ def mujoco_model(parts_a, parts_b, multiccd: bool = True):
 def part_pairs(data, count_a: int) -> dict:
     """``{(part_a, part_b): (depth (m), normal (3,))}`` of the current contacts, the deepest
     per pair."""
+    contact = data.contact
+    return pairs_of(contact.frame, contact.dist, contact.geom, count_a)
+
+
+def pairs_of(frame, dist, geom, count_a: int) -> dict:
+    """:func:`part_pairs` of copied contact arrays: ``frame`` (k, 9), ``dist`` (k,), ``geom``
+    (k, 2) (A's geoms first, ``count_a`` of them)."""
     pairs: dict = {}
-    for c in range(int(data.ncon)):
-        contact = data.contact[c]
-        g1, g2 = int(contact.geom[0]), int(contact.geom[1])
-        normal = np.array(contact.frame[0:3])
+    for c in range(len(dist)):
+        g1, g2 = int(geom[c][0]), int(geom[c][1])
+        normal = np.array(frame[c][0:3])
         if g1 >= count_a:
             g1, g2, normal = g2, g1, -normal
-        key, depth = (g1, g2 - count_a), -float(contact.dist)
+        key, depth = (g1, g2 - count_a), -float(dist[c])
         if key not in pairs or depth > pairs[key][0]:
             pairs[key] = (depth, normal)
     return pairs

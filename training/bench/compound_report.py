@@ -1,7 +1,8 @@
 """Markdown report and plot of the compound benchmark
 (:mod:`impactnet.training.bench.compound_detail`): cost per pose at each detail level with
-the oracle's speed-up over each reference measured in the same run, each reference's errors
-against the oracle, and issue #20's goals, met or not.
+the oracle's speed-up over each reference measured in the same run, the oracle against MuJoCo
+called from Python (issue #32, :mod:`impactnet.training.bench.speed.compound_speed`), each
+reference's errors against the oracle, and issue #20's goals, met or not.
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import numpy as np
 
 from impactnet.training.bench import compound as detail_one
 from impactnet.training.bench.compound_refs import REFERENCES
+from impactnet.training.bench.speed import compound_speed
 
 #: Issue #20's goal: the oracle at least this much faster than FCL mesh-mesh at detail 2.
 GOAL_MESH_RATIO = 50.0
@@ -102,22 +104,33 @@ def _goal_lines(rows: list[dict], goals: dict) -> list[str]:
 def report(rows: list[dict], goals: dict, command: str, seconds: float) -> str:
     """The whole Markdown page (module docstring)."""
     keys = [(key, label) for key, label, _ in REFERENCES]
+    threads = max((r.get("threads", 1) for r in rows), default=1)
     lines = ["# Compound oracle: cost against detail", "",
              f"Command: `{command}`; {seconds:.0f} s on {os.cpu_count()} cores "
-             f"({platform.machine()}, one thread; {_versions()}). Poses, references and error "
-             "definitions: `impactnet.training.bench.compound_detail`.", "",
+             f"({platform.machine()}; the oracle's batch on {threads} threads, everything else "
+             f"on one; {_versions()}). The oracle is `compound_answer`. Poses, references and "
+             "error definitions: `impactnet.training.bench.compound_detail`.", "",
              "## Goals (issue #20), measured in this run", "", *_goal_lines(rows, goals), "",
              "## Cost per pose", "",
              "µs per pose; in brackets the oracle's speed-up over the reference, "
              "reference / oracle batch, measured on the same poses in this run (below 1x: the "
              "oracle is slower). N: the oracle's batch; the references run pose by pose on "
-             "the first poses of it (their count in the error table).", "",
+             "the first poses of it (their count in the error table); their times are "
+             "`mj_kinematics` + `mj_collision` alone for MuJoCo, the collide calls for FCL.", "",
              "| level | N | part contacts / pose | oracle batch | oracle N = 1 | "
              + " | ".join(label for _, label in keys) + " |", "|---" * (5 + len(keys)) + "|"]
     for r in rows:
         lines.append(f"| {r['level']} | {r['poses']:,} | {r['contacts_per_pose']:.1f} | "
                      f"{r['oracle_us']:.0f} | {r['oracle_one_us']:.0f} | "
                      + " | ".join(_cost(r, key) for key, _ in keys) + " |")
+    lines += ["", "## Against MuJoCo called from Python (issue #32)", "",
+              "µs per pose; ratios are ours / MuJoCo, time per pose, measured in this run. "
+              "MuJoCo from Python, per pose: write both bodies' qpos, `mj_kinematics`, "
+              "`mj_collision` on the model of the same geoms (one per part, meshes for convex "
+              "parts, `multiccd` off), copy the contacts' pos, frame, dist and geom into "
+              "arrays. `compound_answer`, per call: both bodies' poses in, the part contacts "
+              "and summary out. N = 1 alternates the two on the same poses.", "",
+              *compound_speed.table(rows), "", *compound_speed.goal_lines(rows)]
     lines += ["", "## Errors against the oracle", "",
               "Same pairs: share of poses where the reference touches exactly the oracle's "
               "part pairs. Within tolerance: share of poses with the same pairs and every "
@@ -146,18 +159,24 @@ def plot(rows: list[dict], path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8.5, 4.8), dpi=120)
+    fig, ax = plt.subplots(figsize=(11.5, 4.8), dpi=120)
     x = np.arange(len(rows))
-    series = [("oracle_us", "oracle, batch"), ("oracle_one_us", "oracle, N = 1")]
-    series += [(f"{key}_us", label) for key, label, _ in REFERENCES]
-    for (key, label), style in zip(series, ("o-", "o--", "s-", "^-", "d-", "v-")):
-        values = [r.get(key, np.nan) for r in rows]
-        ax.plot(x, values, style, label=label, linewidth=2.2 if "oracle" in label else 1.4)
-    ax.set(yscale="log", ylabel="µs per pose (one thread)",
-           title="Compound contact: cost against detail (40 ft container, spreader)")
+    threads = max((r.get("threads", 1) for r in rows), default=1)
+    series = [("oracle_us", f"compound_answer, batch ({threads} threads)"),
+              ("oracle_one_us", "compound_answer, N = 1"),
+              ("mujoco_py_us", "MuJoCo from Python (multiccd off, qpos to arrays)")]
+    series += [(f"{key}_us", label + (" (kinematics + collision only)"
+                                      if key.startswith("mujoco") else ""))
+               for key, label, _ in REFERENCES]
+    for (key, label), style in zip(series, ("o-", "o--", "P-", "s-", "^-", "d-", "v-")):
+        values = [np.nan if r.get(key) is None else r[key] for r in rows]
+        ax.plot(x, values, style, label=label,
+                linewidth=2.2 if "compound_answer" in label else 1.4)
+    ax.set(yscale="log", ylabel="µs per pose (N = 1 and references: one thread)",
+           title="Compound contact: cost against detail (40 ft container, spreader, cell guide)")
     ax.set_xticks(x, [r["level"] for r in rows], rotation=20, ha="right")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

@@ -26,6 +26,7 @@ import numpy as np
 from impactnet.training.bench import errors as er
 from impactnet.training.bench import polygon as pg
 from impactnet.training.bench.methods import LEARNED, Answer, Method
+from impactnet.training.bench.speed.section import QUICK_SPEED, SpeedPlan
 from impactnet.training.bench.timing import median_per_call, median_repeated
 
 
@@ -53,6 +54,8 @@ class BenchConfig:
     http_requests: int = 2_000  # /v1/contact requests per mode (after warm-up)
     http_batch_repeats: int = 5  # timed /v1/contact/batch calls per mode
     mujoco_poses: int = 5_000  # scored poses compared with MuJoCo per method (0: no column)
+    # the speed section against MuJoCo from Python and the stage profile; None: left out
+    speed: SpeedPlan | None = SpeedPlan()
 
 
 #: The smoke-test plan (`impactnet bench --quick`): well under a minute on two cores.
@@ -60,7 +63,7 @@ QUICK = BenchConfig(scene_poses=10_000, figure2_tilts=20, figure2_per_tilt=100,
                     single_calls=200, loop_single_calls=40, single_warmup=20,
                     batch_repeats=3, loop_repeats=1, fcl_poses=2_000, polygon_poses=100,
                     polygon_figure2_poses=40, http_requests=200, http_batch_repeats=2,
-                    mujoco_poses=500)
+                    mujoco_poses=500, speed=QUICK_SPEED)
 
 
 @dataclass

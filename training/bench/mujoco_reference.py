@@ -88,8 +88,9 @@ class MujocoBoxBox:
 
 
 @lru_cache(maxsize=64)
-def _model(half_a: tuple, half_b: tuple):
-    """Compiled model and data for one pair of half-extents (cached: sizes repeat)."""
+def box_pair_model(half_a: tuple, half_b: tuple):
+    """Compiled model and data of two free boxes (A: geom 0, qpos 0-6; B: geom 1, qpos 7-13)
+    for one pair of half-extents (cached: sizes repeat; the data is shared by its callers)."""
     import mujoco
 
     text = _XML.format(a=" ".join(repr(float(x)) for x in half_a),
@@ -176,7 +177,7 @@ def mujoco_box_box(size_a, position_a, quaternion_a, size_b, position_b,
     groups, inverse = np.unique(sizes, axis=0, return_inverse=True)
     for g, group in enumerate(groups):
         rows = np.flatnonzero(inverse.reshape(-1) == g)
-        model, data = _model(tuple(0.5 * group[:3]), tuple(0.5 * group[3:]))
+        model, data = box_pair_model(tuple(0.5 * group[:3]), tuple(0.5 * group[3:]))
         _collide_rows(model, data, qpos[rows], out, rows)
     _reduce(out, pa, pb)
     return out

@@ -80,18 +80,50 @@ def scene_poses(scene, n: int, seed: int) -> PoseSet:
     m = len(sizes)
     per_pair = -(-n // m)
     rng = np.random.default_rng(seed)
-    parts = [first_contact_poses(per_pair, size_a, size_b, rng,
-                                 depth_fraction=scene.depth_fraction)
-             for size_a, size_b in sizes]
-    order = np.arange(per_pair * m).reshape(m, per_pair).T.reshape(-1)[:n]  # interleaved
-    columns = {k: np.concatenate([p[k] for p in parts])[order] for k in _POSE_KEYS}
-    pair = np.repeat(np.arange(m), per_pair)[order]
+    columns, pair = _interleaved([first_contact_poses(per_pair, size_a, size_b, rng,
+                                                      depth_fraction=scene.depth_fraction)
+                                  for size_a, size_b in sizes], n)
     return PoseSet("scene", **columns, pair=pair,
                    pair_names=tuple((p.a, p.b) for p in scene.pairs),
                    description=f"first contacts of the {m} pairs of scene '{scene.name}', "
                                f"uniform relative orientation, depth "
                                f"{scene.depth_fraction[0]:g}-{scene.depth_fraction[1]:g} of "
                                "the shortest edge")
+
+
+def _interleaved(groups: list[dict], n: int) -> tuple[dict, np.ndarray]:
+    """The pose columns of ``groups`` (dicts of equally long arrays) interleaved row by row,
+    the first ``n`` rows, so that any prefix covers every group evenly; and each row's group."""
+    m, per_group = len(groups), len(groups[0]["size_a"])
+    order = np.arange(per_group * m).reshape(m, per_group).T.reshape(-1)[:n]
+    columns = {k: np.concatenate([g[k] for g in groups])[order] for k in _POSE_KEYS}
+    return columns, np.repeat(np.arange(m), per_group)[order]
+
+
+def stacking_set(n: int, seed: int) -> PoseSet:
+    """``n`` stacking poses of :mod:`impactnet.training.bench.contact_sets` (B resting on A's
+    top face: every family of ``STACKING_FAMILIES`` at every tilt of ``STACKING_TILTS``,
+    interleaved); ``pair`` indexes the family (``pair_names``: its name twice), ``tilt``
+    holds each row's tilt."""
+    from impactnet.training.bench.contact_sets import (
+        STACKING_FAMILIES,
+        STACKING_TILTS,
+        stacking_poses,
+    )
+
+    rng = np.random.default_rng(seed)
+    per_group = -(-n // (len(STACKING_FAMILIES) * len(STACKING_TILTS)))
+    groups = [(k, stacking_poses(per_group, size_a, size_b, tilt, rng))
+              for tilt in STACKING_TILTS
+              for k, (size_a, size_b) in enumerate(STACKING_FAMILIES.values())]
+    columns, group = _interleaved([poses for _, poses in groups], n)
+    family = np.array([k for k, _ in groups])[group]
+    tilt = np.array([poses["tilt"][0] for _, poses in groups])[group]
+    return PoseSet("stacking", **columns, pair=family,
+                   pair_names=tuple((name, name) for name in STACKING_FAMILIES), tilt=tilt,
+                   description=f"stacking ({', '.join(STACKING_FAMILIES)}): B resting on A's "
+                               f"top face, tilts 0 and 1e-12 to 1e-2 rad, offsets up to "
+                               "a quarter of A's length and width, pushed 0.1-20 mm")
 
 
 def figure2_tilts(count: int) -> np.ndarray:

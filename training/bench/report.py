@@ -154,8 +154,8 @@ def machine_line(m: dict) -> str:
     v = m.get("versions", {})
     return (f"{m['cpu']}, {m['cores']} cores ({m.get('cores_usable')} usable), load "
             f"{_g(m.get('load_avg_1m'), 2)} at the start; Python {m['python']}, numpy "
-            f"{m['numpy']}, python-fcl {m['python-fcl']}, torch {v.get('torch')}; BLAS / "
-            "OpenMP pinned to one thread")
+            f"{m['numpy']}, python-fcl {m['python-fcl']}, torch {v.get('torch')}, mujoco "
+            f"{v.get('mujoco')}, numba {v.get('numba')}; BLAS / OpenMP pinned to one thread")
 
 
 def markdown(results: dict) -> str:
@@ -179,6 +179,10 @@ def markdown(results: dict) -> str:
             targets_table(paper), "", paper["note"] + ".", "",
             "### Other reductions of the same triangle-pair contacts", "",
             variants_table(results["rows"]), ""]
+    if results.get("speed"):
+        from impactnet.training.bench.speed.section import markdown as speed_markdown
+
+        out += speed_markdown(results["speed"])
     if "http" in results:
         from impactnet.training.bench.http import http_table
 

@@ -1,4 +1,6 @@
-"""One benchmark run: pose sets, every method on each, the paper check, optional HTTP.
+"""One benchmark run: pose sets, every method on each, the paper check, the speed section
+against MuJoCo called from Python (:mod:`impactnet.training.bench.speed.section`), optional
+HTTP.
 
     from impactnet.training.bench.measure import QUICK
     from impactnet.training.bench.runner import run_bench
@@ -91,6 +93,10 @@ def run_bench(config: BenchConfig, methods=None, mode: str = "custom",
         "paper_estimate": paper.check(rows),
         "mujoco": mujoco,
     }
+    if config.speed is not None:
+        from impactnet.training.bench.speed.section import measure as measure_speed
+
+        results["speed"] = measure_speed(config.speed, sets[0], config.seed, log)
     if config.http:
         from impactnet.training.bench.http import measure_http
 

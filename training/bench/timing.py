@@ -2,7 +2,9 @@
 
 One core: BLAS / OpenMP must be pinned to one thread before numpy is first imported
 (:func:`pin_single_thread`; the CLI entry points call it first). Timed regions run with the
-garbage collector paused; medians are reported and warm-up calls are never counted.
+garbage collector paused; medians are reported and warm-up calls are never counted. Two
+things compared in one run (ours and MuJoCo, say) are timed in alternating slices
+(:func:`alternated`), so that a slow spell of a shared machine falls on both.
 """
 from __future__ import annotations
 
@@ -17,8 +19,8 @@ from importlib import metadata
 #: Environment variables that set the thread count of BLAS / OpenMP (read once, at load time).
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 #: Distributions whose versions are recorded with the results.
-RECORDED_DISTRIBUTIONS = ("numpy", "scipy", "python-fcl", "torch", "matplotlib", "fastapi",
-                          "uvicorn", "impactnet")
+RECORDED_DISTRIBUTIONS = ("numpy", "scipy", "numba", "python-fcl", "mujoco", "torch",
+                          "matplotlib", "fastapi", "uvicorn", "impactnet")
 
 
 def pin_single_thread() -> bool:
@@ -68,6 +70,26 @@ def machine_info() -> dict:
     }
 
 
+def call_times(calls: Sequence[tuple[Callable, tuple]], warmup: int) -> list[float]:
+    """Seconds of each ``fn(*args)`` of ``calls`` (``(fn, args)`` pairs, each call timed on its
+    own, the collector paused), not counting the first ``warmup``."""
+    clock = time.perf_counter
+    times = []
+    gc_was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        for i, (fn, args) in enumerate(calls):
+            t0 = clock()
+            fn(*args)
+            t1 = clock()
+            if i >= warmup:
+                times.append(t1 - t0)
+    finally:
+        if gc_was_enabled:
+            gc.enable()
+    return times
+
+
 def median_per_call(fn: Callable, args_list: Sequence[tuple], warmup: int) -> tuple[float, int]:
     """Median seconds of ``fn(*args)`` over ``args_list``, not counting the first ``warmup``.
 
@@ -78,20 +100,7 @@ def median_per_call(fn: Callable, args_list: Sequence[tuple], warmup: int) -> tu
     count : int
         Timed calls behind the median.
     """
-    clock = time.perf_counter
-    times = []
-    gc_was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for i, args in enumerate(args_list):
-            t0 = clock()
-            fn(*args)
-            t1 = clock()
-            if i >= warmup:
-                times.append(t1 - t0)
-    finally:
-        if gc_was_enabled:
-            gc.enable()
+    times = call_times([(fn, args) for args in args_list], warmup)
     return statistics.median(times), len(times)
 
 
@@ -100,16 +109,19 @@ def median_repeated(fn: Callable[[], object], repeats: int, warmup: bool = True)
     caller has just made it (``warmup=False``)."""
     if warmup:
         fn()
-    clock = time.perf_counter
-    times = []
-    gc_was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for _ in range(repeats):
-            t0 = clock()
-            fn()
-            times.append(clock() - t0)
-    finally:
-        if gc_was_enabled:
-            gc.enable()
-    return statistics.median(times)
+    return statistics.median(call_times([(fn, ())] * repeats, 0))
+
+
+def alternated(first: Sequence[tuple[Callable, tuple]], second: Sequence[tuple[Callable, tuple]],
+               warmup: int, rounds: int = 3) -> tuple[float, float]:
+    """Median seconds per call of two call lists (``(fn, args)`` pairs) timed in alternating
+    slices (``rounds`` of each), so that a slow spell of a shared machine falls on both; the
+    first ``warmup`` calls of each list are not counted."""
+    for calls in (first, second):
+        call_times(calls[:warmup], warmup)  # the warm-up calls, none kept
+    times: tuple[list, list] = ([], [])
+    for r in range(rounds):
+        for calls, out in zip((first, second), times):
+            body = calls[warmup:]
+            out += call_times(body[r * len(body) // rounds:(r + 1) * len(body) // rounds], 0)
+    return statistics.median(times[0]), statistics.median(times[1])

@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -32,11 +33,12 @@ SHIFT_M = 0.01
 TURN_DEG = 1.0
 #: Round-off allowance of the error arithmetic (degrees, per cent).
 ROUNDOFF = 1e-9
-#: A tiny plan for programmatic runs (seconds).
-TINY = with_overrides(QUICK, scene_poses=600, figure2_tilts=6, figure2_per_tilt=10,
-                      single_calls=20, loop_single_calls=5, single_warmup=2, batch_repeats=1,
-                      fcl_poses=60, polygon_poses=12, polygon_figure2_poses=6,
-                      grid_sizes=(1, 4))
+#: A tiny plan for programmatic runs (seconds); the speed section is left out (the quick run
+#: and tests/training/bench/test_speed_vs_mujoco.py cover it).
+TINY = replace(with_overrides(QUICK, scene_poses=600, figure2_tilts=6, figure2_per_tilt=10,
+                              single_calls=20, loop_single_calls=5, single_warmup=2,
+                              batch_repeats=1, fcl_poses=60, polygon_poses=12,
+                              polygon_figure2_poses=6, grid_sizes=(1, 4)), speed=None)
 
 
 def perturbed(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b):
@@ -118,6 +120,27 @@ def test_quick_run_reports_subsamples_and_never_extrapolates(quick_cli):
             assert row["batch_n"] <= row["set_size"]
             assert math.isclose(row["pairs_per_s"] * row["us_per_pair"], 1e6, rel_tol=1e-9)
     assert "(subsample)" in markdown
+
+
+def test_quick_run_ends_with_the_speed_section_against_mujoco_from_python(quick_cli):
+    pytest.importorskip("mujoco")
+    _, out = quick_cli
+    markdown = (out / "results.md").read_text(encoding="utf-8")
+    speed = json.loads((out / "results.json").read_text(encoding="utf-8"))["speed"]
+    assert "## Speed against MuJoCo called from Python (issue #32)" in markdown
+    for head in ("| pose set | calls | box_box | MuJoCo from Python | box_box / MuJoCo "
+                 "(goal <= 1.5x) |", "| pose set | N | threads | box_box | box_box, 1 thread | "
+                 "MuJoCo mj_collision |", "| solver | stage | µs per unit |"):
+        assert head in markdown
+    assert [f["pose_set"] for f in speed["families"]] == ["scene", "stacking"]
+    for family in speed["families"]:
+        one, batch = family["one"], family["batch"]
+        assert one["ratio"] == pytest.approx(one["ours_us"] / one["mujoco_us"], rel=1e-12)
+        assert batch["ratio"] == pytest.approx(batch["ours_us"] / batch["mujoco_us"], rel=1e-12)
+        assert f"| {family['pose_set']} | {batch['n']:,} | {batch['threads']} |" in markdown
+    solvers = [p["solver"] for p in speed["profiles"]]
+    assert solvers[0] == "box_box" and len(solvers) == 4
+    assert all("stages" in p or "note" in p for p in speed["profiles"])
 
 
 def test_exact_row_is_the_reference(quick_cli):

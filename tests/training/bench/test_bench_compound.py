@@ -5,9 +5,10 @@ import pytest
 from impactnet.training.bench import compound_detail
 from impactnet.training.bench.compound import measure, report, stacking_poses
 
-#: Two small levels (label, detail, sides, oracle poses, reference poses) for the smoke runs.
+#: Small levels (label, detail, body B, oracle poses, reference poses) for the smoke runs.
 TINY_LEVELS = (("castings (detail 1)", 1, None, 40, 10),
-               ("apertures (detail 2)", 2, None, 10, 5))
+               ("apertures (detail 2)", 2, None, 10, 5),
+               ("cell guide", 2, compound_detail.GUIDE, 6, 3))
 #: A detail-1 goal run of a few poses (poses, repeats, N = 1 calls, FCL poses).
 TINY_GOALS = {True: (200, 1, 5, 3), False: (200, 1, 5, 3)}
 
@@ -35,11 +36,16 @@ def test_cost_against_detail_measures_every_reference_on_the_same_poses(tmp_path
     from impactnet.training.bench.compound_report import report as page
 
     rows = [compound_detail.measure_level("castings (detail 1)", 1, None, 40, 10, 1),
-            compound_detail.measure_level("twistlocks, 8 sides", 2, 8, 10, 5, 1)]
+            compound_detail.measure_level("twistlocks, 8 sides", 2, 8, 10, 5, 1),
+            compound_detail.measure_level("cell guide", 2, compound_detail.GUIDE, 8, 4, 1)]
     for row in rows:
-        for key in ["oracle_us", "oracle_one_us"] + [f"{k}_us" for k, _, _ in REFERENCES]:
+        for key in ["oracle_us", "oracle_one_us", "mujoco_py_us"] + [
+                f"{k}_us" for k, _, _ in REFERENCES]:
             assert 0 < row[key] < 1e6, key
         assert row["ref_poses"] <= row["poses"]
+        assert row["one_vs_mujoco"] == row["oracle_one_us"] / row["mujoco_py_us"]
+        assert row["batch_vs_mujoco"] == row["oracle_us"] / row["mujoco_py_us"]
+    assert rows[2]["contacts_per_pose"] >= 1  # the container touches the guide
     castings = rows[0]
     # box castings: FCL Box-Box and MuJoCo's box collider find exactly the oracle's part pairs
     for key in ("fcl_convex", "mujoco", "mujoco_epa"):
@@ -49,8 +55,11 @@ def test_cost_against_detail_measures_every_reference_on_the_same_poses(tmp_path
     # twistlock heads as mesh geoms: MuJoCo's single EPA contact agrees on every pose
     assert rows[1]["mujoco_epa_errors"]["rows_ok"] == 1.0
     text = page(rows, measure(200, 1, 5, 3), "impactnet bench compound --quick", 1.0)
-    assert "| castings (detail 1) | 40 |" in text
+    assert "| castings (detail 1) | 40 |" in text and "| cell guide | 8 |" in text
     assert all(label in text for _, label, _ in REFERENCES)
+    assert "## Against MuJoCo called from Python (issue #32)" in text
+    assert "N = 1 / MuJoCo (goal <= 2x)" in text and "batch / MuJoCo (goal <= 1x)" in text
+    assert text.count("(goal <= 2x): ") == text.count("(goal <= 1x): ") == 3
     assert "goal <= 15" in text and "goal <= 150" in text and "goal >= 5x" in text
     plot(rows, tmp_path / "cost.png")
     assert (tmp_path / "cost.png").stat().st_size > 10_000
@@ -82,5 +91,6 @@ def test_impactnet_bench_compound_writes_the_table_and_the_plot(tmp_path, monkey
     text = (tmp_path / "compound.md").read_text(encoding="utf-8")
     assert f"`impactnet bench compound --quick --out {tmp_path} --plot {image}`" in text
     assert "goal >= 50x" in text and "| castings (detail 1) | 4 |" in text
+    assert "| cell guide | " in text and "MuJoCo from Python, per pose" in text
     assert image.stat().st_size > 10_000
     assert "apertures (detail 2): oracle" in capsys.readouterr().out
