@@ -156,7 +156,8 @@ def warm_up() -> int:
 #: The modules that hold kernels (imported by :func:`warm_up`, which runs their warm-ups): each
 #: registers its warm-up with :func:`on_warm_up` when imported.
 KERNEL_MODULES = ("impactnet.models.box.kernels", "impactnet.models.compound.kernels",
-                  "impactnet.models.learned.kernels", "impactnet.models.frame.broadphase")
+                  "impactnet.models.learned.kernels", "impactnet.models.frame.broadphase",
+                  "impactnet.models.distance.kernels")
 
 
 def main() -> int:
