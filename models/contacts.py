@@ -33,7 +33,7 @@ NONE, VERTEX_FACE, FACE_VERTEX, EDGE_EDGE, EDGE_FACE, FACE_EDGE, FACE_FACE = ran
 #: The rule that defines ``point`` and its version, reported by the service's ``GET /v1/models``
 #: under ``conventions`` so that a client can check what it gets (CHANGELOG.md). Version 1 was
 #: the depth-weighted mean of the manifold's vertices; version 2 is the centre of pressure of the
-#: overlap footprint (DESIGN.md, :mod:`impactnet.models.box.manifold`).
+#: overlap footprint (DESIGN.md, :mod:`impactnet.models.box.kernel_pressure`).
 POINT_RULE = "centre-of-pressure"
 POINT_RULE_VERSION = 2
 
@@ -76,7 +76,7 @@ class Contacts:
         Name of the predictor that answered each row.
     pressure : ndarray of float64, shape (n,)
         The integral of the pressure over a face contact's region, ``int (d + tau) dA`` in m^3
-        (``tau`` the depth floor of :mod:`impactnet.models.box.pressure`): a part contact's
+        (``tau`` the depth floor of :mod:`impactnet.models.box.tolerances`): a part contact's
         weight in a compound body's summary. 0 for edge-edge contacts, separated rows and
         learned answers.
     """

@@ -1,8 +1,8 @@
-"""The exact box-box solver: the batch path (exact), the local frame, the separating-axis test
-with its tie rule (sat), the incident-face clip (clip, manifold) and the centre of pressure
-(pressure); the one-pair path mirrors them in plain floats (exact_one, sat_one, pressure_one,
-with its inputs validated by scalar_inputs).
+"""The exact box-box solver: the public entries (exact), the compiled kernels that solve every
+pair (kernels, with one module per stage: kernel_inputs, kernel_frame, kernel_sat,
+kernel_face, kernel_pressure), their tolerances and tables (tolerances), and the solver's
+intermediate answers for other callers (decision, over kernel_views).
 
-May import NumPy, ``impactnet.models.geometry`` and ``impactnet.models.contacts`` / ``domain``;
-never the learned predictors.
+May import NumPy, numba (through ``impactnet.models.compiled``), ``impactnet.models.geometry``
+and ``impactnet.models.contacts`` / ``domain``; never the learned predictors.
 """

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from impactnet.models import contacts as ct
-from impactnet.models.box.manifold import FACE_INC_CODES, FACE_REF_CODES
+from impactnet.models.box.tolerances import FACE_INC_CODES, FACE_REF_CODES
 from impactnet.models.compound.convex_face import face_region
 from impactnet.models.compound.convex_sat import EDGE, FACE_A, FACE_B, choose_axis, rotate
 from impactnet.models.compound.hull import Hull

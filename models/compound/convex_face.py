@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from impactnet.models.box.manifold import SNAP_TOL_REL
-from impactnet.models.box.pressure import PRESSURE_FLOOR_REL, REGION_DEPTH_TOL_REL
+from impactnet.models.box.tolerances import SNAP_TOL_REL
+from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL, REGION_DEPTH_TOL_REL
 from impactnet.models.compound import polygon_clip as pc
 from impactnet.models.compound.convex_sat import dot, rotate
 from impactnet.models.compound.hull_stack import HullStack

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from impactnet.models.box.sat import (
+from impactnet.models.box.tolerances import (
     CONTACT_TOL_REL,
     DEPTH_GAIN_TOL_REL,
     EDGE_INSIDE_TOL_REL,

@@ -37,8 +37,8 @@ from __future__ import annotations
 import numpy as np
 
 from impactnet.models import contacts as ct
+from impactnet.models.box.decision import single_pair
 from impactnet.models.box.exact import box_box
-from impactnet.models.box.scalar_inputs import single_pair
 from impactnet.models.bundle.format import Bundle
 from impactnet.models.learned import pose_columns as pc
 from impactnet.models.learned.canonical import FALLBACK_NORMAL, FLIP_FEATURES, N_POSE_FEATURES

@@ -4,7 +4,8 @@ predictors (the contract: docs/learned_predictors.md).
 Stages, as training and inference both apply them:
 
 1. :func:`relative_pose`: B in A's frame, ``t = R_A^T (p_B - p_A)``, ``R = R_A^T R_B``,
-   float64, computed exactly as the exact solver does (:mod:`impactnet.models.box.local_frame`).
+   float64, computed exactly as the exact solver does (:func:`impactnet.models.box.decision.
+   relative_pose`).
 2. :func:`canonicalize`: the sign symmetries of both boxes move B's centre into A's positive
    octant and A's centre into B's: ``S = diag(sign t)``, ``T = diag(sign u)`` with
    ``u = -(S R)^T S t`` (ties +1), ``t' = S t``, ``R' = S R T`` (possibly improper: it still
@@ -29,8 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from impactnet.models.box import local_frame as lf
-from impactnet.models.box.exact import CHUNK_ROWS, prepare_inputs
+from impactnet.models.box import decision
 from impactnet.models.contacts import CONTACT_TYPE_CODES, CONTACT_TYPES, NONE
 from impactnet.models.geometry import box_features as bf
 from impactnet.models.geometry.rotations import quaternion_to_matrix
@@ -105,16 +105,8 @@ def relative_pose(size_a, position_a, quaternion_a, size_b, position_b,
     impactnet.models.geometry.rotations.InvalidRotationError
         As the exact solver does.
     """
-    inputs = prepare_inputs(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
-    n = len(inputs[0])
-    data = np.empty((lf.LocalPose.ROWS, n))
-    for start in range(0, n, CHUNK_ROWS):
-        stop = min(n, start + CHUNK_ROWS)
-        pose, _ = lf.local_pose(lf.input_columns(inputs, start, stop))
-        data[:, start:stop] = pose.data
-    pose = lf.LocalPose(data)
-    return RelativePose(pose.ha.T.copy(), pose.hb.T.copy(), pose.r.T.reshape(n, 3, 3).copy(),
-                        pose.t.T.copy())
+    return RelativePose(*decision.relative_pose(size_a, position_a, quaternion_a, size_b,
+                                                position_b, quaternion_b))
 
 
 def world_rotation(quaternion) -> np.ndarray:

@@ -12,7 +12,7 @@ it is given. The committee hands on
 
 For one pair, the committee's region labeller has already run the separating-axis test and its
 tie rule; the exact link finishes from that decision
-(:func:`impactnet.models.box.exact_one.answer_one`) instead of deciding again. A batch hands
+(:func:`impactnet.models.box.decision.answer_one`). A batch hands
 its declined rows to :func:`impactnet.models.box.exact.box_box` in one vectorised call.
 """
 from __future__ import annotations
@@ -20,8 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from impactnet.models import contacts as ct
-from impactnet.models.box.exact_one import answer_one, box_box_one
-from impactnet.models.box.scalar_inputs import single_pair
+from impactnet.models.box.decision import answer_one, box_box_one, single_pair
 from impactnet.models.learned import pose_columns as pc
 from impactnet.models.learned.batch import CommitteePredictor, exact_fill
 from impactnet.models.learned.one_pair import Prediction, predict_one
@@ -77,5 +76,5 @@ class FallbackChain:
 def _exact_one(values, decision) -> ct.Contacts:
     """The exact link for one pair: finish from the labeller's decision, or decide first."""
     if decision is None:
-        return box_box_one(*values)
-    return answer_one(decision, values[1], values[4])
+        return box_box_one(values)
+    return answer_one(decision)

@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from impactnet.models import contacts as ct
-from impactnet.models.box.exact_one import answer_one, box_box_one
+from impactnet.models.box.decision import answer_one, box_box_one
 from impactnet.models.geometry.rotations import quaternion_matrix
 from impactnet.models.learned.canonical import FALLBACK_NORMAL, FLIP_FEATURES, NORMAL_NORM_MIN
 from impactnet.models.learned.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE, UnsupportedPairError
@@ -95,7 +95,7 @@ def _spread(members, scale):
 
 def predict_one(predictor, values, spread: bool = True, confident_only: bool = False):
     """The answer of ``predictor`` (a ``single`` or ``committee`` LearnedPredictor) for one
-    validated pair (the lists of :func:`impactnet.models.box.scalar_inputs.single_pair`): a
+    validated pair (the lists of :func:`impactnet.models.box.decision.single_pair`): a
     one-row `Contacts`, the normal spread (deg) and the point spread (m) of the committee (0
     where none answered or when not ``spread``).
 
@@ -113,7 +113,7 @@ def predict_one(predictor, values, spread: bool = True, confident_only: bool = F
         raise UnsupportedPairError([0], [p.key for p in predictor.pairs
                                          if p.supports(predictor.mode)], predictor.mode)
     if pair.exact_only:  # the bundle's decision: the exact solver answers this pair
-        return (None, None) if confident_only else (box_box_one(*values), 0.0, 0.0)
+        return (None, None) if confident_only else (box_box_one(values), 0.0, 0.0)
     swapped = code % 2 == 1
     solved = values[3:] + values[:3] if swapped else values
     if predictor.mode == "single":
@@ -129,7 +129,7 @@ def predict_one(predictor, values, spread: bool = True, confident_only: bool = F
         if row is None:  # no committee for the region, or not confident: the exact solver
             if confident_only:
                 return None, decision
-            return answer_one(decision, values[1], values[4]), 0.0, 0.0
+            return answer_one(decision), 0.0, 0.0
     if swapped:
         row[1] = [-row[1][0], -row[1][1], -row[1][2]]
         row[4], row[5], row[6] = _MIRROR_TYPE[row[4]], row[6], row[5]

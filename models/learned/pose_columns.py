@@ -2,9 +2,8 @@
 
 The same stages as :mod:`impactnet.models.learned.canonical` (relative pose, canonical signs,
 ``pose-v1``
-features; ``contact-v1`` outputs back to the world), written for speed in the style of
-:mod:`impactnet.models.box.local_frame`: a block of m rows is a set of contiguous (m,) columns, and
-every
+features; ``contact-v1`` outputs back to the world), written for speed as columns: a block of m
+rows is a set of contiguous (m,) columns, and every
 formula is written out term by term (NumPy is fast on long contiguous arrays, slow on
 (m, 3, 3) stacks). Differences to the reference functions, all at rounding level (tested):
 

@@ -6,23 +6,21 @@ the pair's size, and the tie rules (1e-12 of the size) pick the axis and the inc
 (docs/classifier_study.md). A classifier that is to agree with the exact solver there must
 repeat its float64 arithmetic, so it does, and costs less than a learned one would:
 
-1. the separating-axis test and its tie rule (:func:`impactnet.models.box.exact.contact_axes`) give
-"none",
-   the axis, the depth and the normal, exactly;
-2. for a face axis, the incident face's four vertex depths name the incident feature
-   (:func:`impactnet.models.box.manifold.incident_feature`); for a cross axis, the two supporting
-   edges
-   (:func:`impactnet.models.box.manifold.edge_contact`).
+1. the separating-axis test and its tie rule give "none", the axis, the depth and the normal,
+   exactly;
+2. for a face axis, the incident face's four vertex depths name the incident feature; for a
+   cross axis, the two supporting edges
+
+(both the solver's own kernels: :func:`impactnet.models.box.decision.decisions`).
 
 What is left for the learned experts is the point, whose exact computation (the centre of
-pressure of the clipped footprint, :mod:`impactnet.models.box.pressure`) is the expensive part.
-:func:`label_block` is the batch path (columns, as :mod:`impactnet.models.box.exact`),
-:func:`label_one` the
-N = 1 path in Python floats (as :mod:`impactnet.models.box.exact_one`); both give the exact solver's
+pressure of the clipped footprint, :mod:`impactnet.models.box.kernel_pressure`) is the expensive
+part. :func:`label_block` is the batch path, :func:`label_one` the N = 1 path in Python floats;
+both give the exact solver's
 ``colliding``, ``axis``, ``normal``, type and features bit for bit (tested), and its ``depth``
 except on face contacts whose incident box hangs beyond the reference face: there the labeller
 keeps the SAT overlap and the exact solver reports the shallower deepest point of the footprint
-(:mod:`impactnet.models.box.exact`, stage 4).
+(:mod:`impactnet.models.box.kernels`, stage 4).
 """
 from __future__ import annotations
 
@@ -31,10 +29,10 @@ from typing import NamedTuple
 import numpy as np
 
 from impactnet.models import contacts as ct
-from impactnet.models.box import exact_one as es
-from impactnet.models.box import local_frame as lf
-from impactnet.models.box import manifold as mf
-from impactnet.models.box.exact import CHUNK_ROWS, contact_axes, prepare_inputs, unit_quaternions
+from impactnet.models.box.decision import decide_one, decisions, reference_to_world
+from impactnet.models.box.exact import checked_rows
+from impactnet.models.box.tolerances import SNAP_TOL_REL
+from impactnet.models.compiled import CHUNK_ROWS
 from impactnet.models.geometry import box_features as bf
 from impactnet.models.learned.pair_dispatch import MIRROR_AXIS, MIRROR_TYPE
 
@@ -53,109 +51,80 @@ class Labels(NamedTuple):
     exact_point: np.ndarray  # (m,) bool: ``unclipped`` is the exact point (edge-edge, and
     # parallel aligned face contacts with every incident vertex touching)
     unclipped: np.ndarray  # (3, m) float64, world frame, metres: the point before clipping
-    # (impactnet.models.box.manifold.face_features; an edge-edge contact's exact point; A's centre
-    # where
-    # separated)
+    # (face_features; an edge-edge contact's exact point; A's centre where separated)
 
 
-def input_block(inputs, start: int, stop: int) -> np.ndarray:
-    """Rows ``start:stop`` of validated inputs as a (20, m) column block for
-    :func:`label_block`, quaternions normalised as :func:`impactnet.models.box.exact.prepare_inputs`
-    does
-    (so that the labels are the exact solver's bit for bit).
+def input_block(inputs, start: int, stop: int) -> tuple:
+    """Rows ``start:stop`` of validated inputs as the six arrays of :func:`label_block` (one-row
+    arrays kept, to broadcast; A's sizes repeated where every input has one row).
 
-    ``inputs``: a :class:`impactnet.models.learned.pose_columns.Inputs`; its 1-row arrays are
-    broadcast.
+    ``inputs``: a :class:`impactnet.models.learned.pose_columns.Inputs` (or the six arrays).
     """
-    m = stop - start
-    block = np.empty((lf.INPUT_ROWS, m))
-    for rows, value in zip(lf.INPUT_SLICES, inputs[:6]):
-        part = value if len(value) == 1 else value[start:stop]
-        if part.shape[1] == 4:
-            part = unit_quaternions(part)
-        block[rows] = part.T
-    return block
+    block = [value if len(value) == 1 else value[start:stop] for value in inputs[:6]]
+    if all(len(value) == 1 for value in block):
+        block[0] = np.repeat(block[0], stop - start, axis=0)
+    return tuple(block)
 
 
-def label_block(block: np.ndarray) -> Labels:
-    """Exact labels of the m pairs of an input block.
+def label_block(block) -> Labels:
+    """Exact labels of the m pairs of an input block (:func:`input_block`: the six inputs as
+    ``box_box`` takes them, quaternions not necessarily unit)."""
+    found = decisions(*block)
+    unclipped = found.point.copy()  # edge-edge points, A's centre elsewhere (world)
+    exact_point = found.code == ct.EDGE_EDGE
+    rows = np.flatnonzero(found.colliding & (found.axis < 6))
+    if rows.size:
+        local, exact_point[rows] = face_features(found.quad[rows], found.reference[rows],
+                                                 found.scale[rows])
+        unclipped[rows] = reference_to_world(block, rows, found.axis[rows], local.T)
+    return Labels(found.colliding, found.axis, found.depth, found.normal.T, found.code,
+                  found.feature_a, found.feature_b, exact_point, unclipped.T)
+
+
+def face_features(quad, reference, scale):
+    """An approximate point of m face contacts, without the clipping.
 
     Parameters
     ----------
-    block : ndarray, shape (20, m)
-        Input columns of :func:`impactnet.models.box.local_frame.input_columns` (float64).
-    """
-    pose, rot_a = lf.local_pose(block)
-    m = block.shape[1]
-    colliding, axis, depth, normal, (edge_rows, edge_point, edge_a, edge_b) = contact_axes(pose)
-    code = np.zeros(m, np.int8)
-    feature_a = np.full(m, bf.NO_FEATURE, np.int8)
-    feature_b = np.full(m, bf.NO_FEATURE, np.int8)
-    unclipped = np.zeros((3, m))  # A's frame
-    exact_point = np.zeros(m, bool)
-    face = colliding & (axis < 6)
-    rows = np.flatnonzero(face)
-    if rows.size:
-        ref_is_b = axis[rows] >= 3
-        frame = mf.ReferenceFrame(pose, rows, ref_is_b, axis[rows] % 3)
-        incident, rank, ref_face, point, exact_point[rows] = face_features(frame,
-                                                                          pose.scale[rows])
-        code[rows], feature_a[rows], feature_b[rows] = mf.face_labels(ref_is_b, incident, rank,
-                                                                      ref_face)
-        flip = np.flatnonzero(ref_is_b)  # points in B's frame: map them to A's
-        if flip.size:
-            point[:, flip] = lf.b_to_a(pose, rows[flip], point[:, flip])
-        unclipped[:, rows] = point
-    if edge_rows.size:
-        unclipped[:, edge_rows] = edge_point
-        feature_a[edge_rows], feature_b[edge_rows] = edge_a, edge_b
-        exact_point[edge_rows] = True
-        code[edge_rows] = ct.EDGE_EDGE
-    world = block[lf.INPUT_SLICES[1]] + lf.matvec(rot_a, unclipped)
-    return Labels(colliding, axis.astype(np.int8), depth, lf.matvec(rot_a, normal), code,
-                  feature_a, feature_b, exact_point, world)
-
-
-def face_features(frame: mf.ReferenceFrame, scale):
-    """The labels of :func:`impactnet.models.box.manifold.face_manifold` without the clipping, and
-    an
-    approximate point.
+    quad : ndarray, shape (m, 4, 3)
+        The incident face's vertices (reference coordinates along the axis, u, w; metres).
+    reference : ndarray, shape (m, 4)
+        The reference face's half-extents (along the axis, u, w; metres) and side (+-1).
+    scale : ndarray, shape (m,)
+        Pair scale (metres).
 
     Returns
     -------
-    incident_feature, touching_rank, ref_face : ndarray of int, shape (m,)
-        As :func:`impactnet.models.box.manifold.face_manifold`'s.
     unclipped : ndarray, shape (3, m)
         The point the touching incident vertices (depth >= -tolerance) give when each is
-        clamped into the reference face's rectangle instead of clipped (reference frame,
-        metres): their depth-weighted mean (depths of the incident face's plane at the
-        clamped points), on the mid-surface. It is the exact point (the centre of pressure)
-        where the incident face is parallel to and aligned with the reference face and every
-        vertex touches (clamping a rectangle's corners into an aligned rectangle gives their
-        intersection's corners, under a uniform pressure); elsewhere it is a baseline, and
-        the committee's experts learn the rest.
+        clamped into the reference face's rectangle instead of clipped (reference coordinates
+        along the axis, u, w; metres): their depth-weighted mean (depths of the incident face's
+        plane at the clamped points), on the mid-surface. It is the exact point (the centre of
+        pressure) where the incident face is parallel to and aligned with the reference face
+        and every vertex touches (clamping a rectangle's corners into an aligned rectangle
+        gives their intersection's corners, under a uniform pressure); elsewhere it is a
+        baseline, and the committee's experts learn the rest.
     exact : ndarray of bool, shape (m,)
         The unclipped point is the exact point (aligned, parallel within
         :data:`PARALLEL_DEPTH_REL`, every vertex touching).
     """
-    tol = mf.SNAP_TOL_REL * scale
-    vertices, ref_sign, k, side = mf.incident_quad(frame)
-    height, half_u, half_w = frame.half_ref()
+    tol = SNAP_TOL_REL * scale
+    vertices = quad.transpose(1, 2, 0)  # (4, 3, m)
+    height, half_u, half_w, ref_sign = reference.T
     depth = height - ref_sign * vertices[:, 0]
-    feature, rank = mf.incident_feature(depth, k, side, tol)
     u = np.clip(vertices[:, 1], -half_u, half_u)
     w = np.clip(vertices[:, 2], -half_w, half_w)
     clamped = plane_depth(vertices[:, 1], vertices[:, 2], depth, u, w)
     weight = np.where(depth >= -tol, np.maximum(clamped, 0.0) + WEIGHT_FLOOR_REL * scale, 0.0)
     total = weight.sum(axis=0)
     along = ref_sign * height - ref_sign * 0.5 * (weight * clamped).sum(axis=0) / total
-    unclipped = mf.from_reference(frame.ref_axis, along, (weight * u).sum(axis=0) / total,
-                               (weight * w).sum(axis=0) / total)
+    unclipped = np.array([along, (weight * u).sum(axis=0) / total,
+                          (weight * w).sum(axis=0) / total])
     quad_u, quad_w = vertices[:, 1], vertices[:, 2]
     spread = depth.max(axis=0) - depth.min(axis=0)
     exact = (aligned(quad_u, quad_w) & (depth >= -tol).all(axis=0)
              & (spread <= PARALLEL_DEPTH_REL * scale))
-    return feature, rank, bf.face_id(frame.ref_axis, ref_sign < 0), unclipped, exact
+    return unclipped, exact
 
 
 #: Relative floor (x pair scale, metres) added to each vertex weight of the unclipped point, so
@@ -216,72 +185,54 @@ def mirrored(labels: Labels) -> Labels:
 def unclipped_points(size_a, position_a, quaternion_a, size_b, position_b,
                      quaternion_b) -> np.ndarray:
     """The unclipped points (n, 3) (world frame, metres) and their ``exact_point`` flags (n,)
-    (see :class:`Labels`) of n pairs, arguments as :func:`impactnet.models.box.exact.box_box` (the
-    experts'
-    training targets are the exact point minus this, on the rows not flagged)."""
-    inputs = prepare_inputs(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
-    n = len(inputs[0])
+    (see :class:`Labels`) of n pairs, arguments as :func:`impactnet.models.box.exact.box_box`
+    (the experts' training targets are the exact point minus this, on the rows not flagged)."""
+    rows, n = checked_rows(size_a, position_a, quaternion_a, size_b, position_b, quaternion_b)
     out, exact = np.empty((n, 3)), np.empty(n, bool)
     for start in range(0, n, CHUNK_ROWS):
         stop = min(n, start + CHUNK_ROWS)
-        labels = label_block(lf.input_columns(inputs, start, stop))
+        labels = label_block(input_block(rows, start, stop))
         out[start:stop], exact[start:stop] = labels.unclipped.T, labels.exact_point
     return out, exact
 
 
 def label_one(values) -> tuple:
-    """Exact labels of one validated pair (the lists of :func:`impactnet.models.box.exact_one.
-    single_pair`): ``(colliding, axis, depth, normal, code, feature_a, feature_b,
-    exact_point, unclipped, decision)``, the normal and the unclipped point (see
-    :class:`Labels`) as 3 floats in the world frame, and the separating-axis
-    :class:`~impactnet.models.box.exact_one.Decision` behind them (the exact fallback finishes
-    from it)."""
-    decision = es.decide_one(*values)
-    ha, hb, rot, t, rot_a, scale = decision.frame
-    _, colliding, axis, normal, depth, edge = decision
-    world = es.apply(rot_a, normal)
-    if not colliding:
-        return (False, axis, 0.0, world, ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE, False,
+    """Exact labels of one validated pair (:func:`impactnet.models.box.decision.single_pair`):
+    ``(colliding, axis, depth, normal, code, feature_a, feature_b, exact_point, unclipped,
+    decision)``, the normal and the unclipped point (see :class:`Labels`) as 3 floats in the
+    world frame, and the solver's :class:`~impactnet.models.box.decision.Decision` behind them
+    (the exact fallback finishes from it)."""
+    decision = decide_one(values)
+    axis, normal, code = decision.axis, decision.normal, decision.code
+    if not decision.colliding:
+        return (False, axis, 0.0, normal, ct.NONE, bf.NO_FEATURE, bf.NO_FEATURE, False,
                 list(values[1]), decision)
+    exact, unclipped = True, decision.point  # edge-edge: the exact point
     if axis < 6:
-        code, feature_a, feature_b, point, exact = _face_labels_one(ha, hb, rot, t, axis, scale)
-    else:
-        point, feature_a, feature_b = edge
-        code, exact = ct.EDGE_EDGE, True
-    pa = values[1]
-    unclipped = [pa[r] + es.dot(rot_a[r], point) for r in range(3)]
-    return True, axis, depth, world, code, feature_a, feature_b, exact, unclipped, decision
+        local, exact = _face_point_one(decision.quad, decision.reference, decision.scale)
+        unclipped = reference_to_world(values.rows, [0], [axis], [local])[0].tolist()
+    return (True, axis, decision.depth, normal, code, decision.feature_a, decision.feature_b,
+            exact, unclipped, decision)
 
 
-def _face_labels_one(ha, hb, rot, t, axis, scale):
-    """(type code, feature of A, feature of B, unclipped point in A's frame, exact flag) of
-    one face-axis contact (as :func:`face_features`)."""
-    h_ref, h_inc, rot_ri, t_ri = es.reference_view(ha, hb, rot, t, axis)
-    ref_axis = axis % 3
-    ref_sign, vertices, signs, depth, face = es.incident_face(h_ref, h_inc, rot_ri, t_ri,
-                                                             ref_axis)
-    tol = mf.SNAP_TOL_REL * scale
-    incident, rank = es.incident_feature(depth, signs, face, tol)
-    ref_face = bf.FACE_BASE + 2 * ref_axis + (ref_sign < 0)
-    u_axis, w_axis = (ref_axis + 1) % 3, (ref_axis + 2) % 3
-    quad = [(v[u_axis], v[w_axis]) for v in vertices]
-    clamped = [(min(max(u, -h_ref[u_axis]), h_ref[u_axis]),
-                min(max(w, -h_ref[w_axis]), h_ref[w_axis])) for u, w in quad]
+def _face_point_one(quad, reference, scale):
+    """The unclipped point of one face contact (reference coordinates along the axis, u, w)
+    and its exact flag, as :func:`face_features`."""
+    height, half_u, half_w, ref_sign = reference
+    tol = SNAP_TOL_REL * scale
+    depth = [height - ref_sign * v[0] for v in quad]
+    quad = [(v[1], v[2]) for v in quad]
+    clamped = [(min(max(u, -half_u), half_u), min(max(w, -half_w), half_w)) for u, w in quad]
     depths = _plane_depth_one(quad, depth, clamped)
     weights = [max(dc, 0.0) + WEIGHT_FLOOR_REL * scale if d >= -tol else 0.0
                for d, dc in zip(depth, depths)]
     total = sum(weights)
-    point = [0.0, 0.0, 0.0]
-    point[ref_axis] = (ref_sign * h_ref[ref_axis]
-                       - ref_sign * 0.5 * sum(w * d for w, d in zip(weights, depths)) / total)
-    point[u_axis] = sum(w * c[0] for w, c in zip(weights, clamped)) / total
-    point[w_axis] = sum(w * c[1] for w, c in zip(weights, clamped)) / total
+    point = [ref_sign * height - ref_sign * 0.5 * sum(w * d for w, d in zip(weights, depths))
+             / total, sum(w * c[0] for w, c in zip(weights, clamped)) / total,
+             sum(w * c[1] for w, c in zip(weights, clamped)) / total]
     exact = (all(d >= -tol for d in depth) and _aligned_one(quad)
              and max(depth) - min(depth) <= PARALLEL_DEPTH_REL * scale)
-    if axis >= 3:
-        point = [t[r] + es.dot(rot[r], point) for r in range(3)]
-        return es.FACE_INC_CODES[rank], incident, ref_face, point, exact
-    return es.FACE_REF_CODES[rank], ref_face, incident, point, exact
+    return point, exact
 
 
 def _aligned_one(quad) -> bool:

@@ -68,3 +68,26 @@ def labelled_rows(size_a, size_b, n: int, seed: int) -> dict:
     labels = box_box(*(rows[k] for k in KEYS))
     rows.update({name: getattr(labels, name) for name in LABELS})
     return rows
+
+
+def in_threads(work, count: int = 8, timeout: float = 120.0) -> list:
+    """``work(k)`` run in ``count`` threads at once (k = 0 .. count - 1); their results, in
+    order. The first exception a thread raised is raised here."""
+    import threading
+
+    results, errors = [None] * count, []
+
+    def run(k: int) -> None:
+        try:
+            results[k] = work(k)
+        except Exception as exc:  # noqa: BLE001 - raised below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(count)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout)
+    if errors:
+        raise errors[0]
+    return results

@@ -3,13 +3,12 @@ parallel launches are safe from many threads at once, the cache folder is writab
 the package is installed, warm-ups run once registered."""
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 import pytest
 
 from impactnet.models import compiled
 from impactnet.models.work import WorkLimit, WorkStopped, limited
+from tests.models.helpers import in_threads
 
 
 @compiled.parallel_jit
@@ -40,24 +39,14 @@ def test_chunks_stop_when_the_work_limit_is_cancelled():
 def test_eight_threads_launching_parallel_kernels_at_once_get_the_serial_answers():
     values = np.random.default_rng(0).normal(size=(20_000, 16))
     expected = (values * values).sum(axis=1)
-    results, errors = [None] * 8, []
 
-    def run(k: int) -> None:
-        try:
-            out = np.empty(len(values))
-            for _ in range(5):
-                compiled.launch(_row_sums, values, out)
-            results[k] = out
-        except Exception as exc:  # noqa: BLE001 - reported below
-            errors.append(exc)
+    def run(k: int) -> np.ndarray:
+        out = np.empty(len(values))
+        for _ in range(5):
+            compiled.launch(_row_sums, values, out)
+        return out
 
-    threads = [threading.Thread(target=run, args=(k,)) for k in range(8)]
-    for thread in threads:
-        thread.start()
-    for thread in threads:
-        thread.join(60)
-    assert not errors
-    for out in results:
+    for out in in_threads(run, timeout=60):
         np.testing.assert_allclose(out, expected, rtol=1e-13)
 
 
@@ -81,4 +70,5 @@ def test_thread_counts_stay_within_numba_s_pool():
 def test_warm_up_runs_every_registered_warm_up(monkeypatch):
     calls = []
     monkeypatch.setattr(compiled, "_WARM_UPS", [lambda: calls.append(1)])
+    monkeypatch.setattr(compiled, "KERNEL_MODULES", ())  # a module imported now would register
     assert compiled.warm_up() == 1 and calls == [1]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from impactnet.models.box.exact import InvalidBoxError, box_box
-from impactnet.models.box.pressure import PRESSURE_FLOOR_REL
+from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL
 from impactnet.models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from impactnet.models.geometry.rotations import (
     euler_to_matrix,

@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from impactnet.models.box.exact import box_box
-from impactnet.models.box.pressure import PRESSURE_FLOOR_REL
-from impactnet.models.box.sat import FACE_AXIS_ANGLE_TOL
+from impactnet.models.box.tolerances import FACE_AXIS_ANGLE_TOL, PRESSURE_FLOOR_REL
 from impactnet.models.contacts import CONTACT_TYPES
 from impactnet.models.geometry.poses import ORIENTATIONS, SIZE_FAMILIES, first_contact_poses
 from impactnet.models.geometry.rotations import (
@@ -50,7 +49,7 @@ def check_invariants(p):
     # The point lies inside both boxes grown by the depth and the pressure floor: the centre
     # of pressure sits at most half the depth below the reference plane, over a footprint
     # whose incident surface is at most the floor tau above that plane
-    # (impactnet.models.box.pressure: the
+    # (impactnet.models.box.kernel_pressure: the
     # region is d + tau >= 0), so it is at most d / 2 + tau from the incident box.
     grown = c.depth + PRESSURE_FLOOR_REL * scale
     for side in ("a", "b"):

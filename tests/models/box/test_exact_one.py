@@ -1,10 +1,12 @@
-"""The N = 1 fast path (plain Python) and the vectorised path give the same answer, bit for
-bit (the N = 1 path sums in the batch path's order)."""
+"""One pair and a batch give the same answer, bit for bit: the one-pair entry (six vectors),
+the serial kernel of small batches and the parallel kernel of large ones run the same row
+function (models/box/kernels.py)."""
 import numpy as np
 import pytest
 
-from impactnet.models.box.exact import box_box, box_box_batch, prepare_inputs
-from impactnet.models.box.exact_one import box_box_one, single_pair
+from impactnet.models.box.decision import single_pair
+from impactnet.models.box.exact import box_box
+from impactnet.models.compiled import PARALLEL_MIN_ROWS
 from impactnet.models.geometry.poses import ORIENTATIONS, SIZE_FAMILIES, first_contact_poses
 from tests.models.helpers import KEYS
 
@@ -26,12 +28,22 @@ def assert_rows_equal(batch, i, one):
 
 
 @pytest.mark.parametrize("seed", [0, pytest.param(100, marks=pytest.mark.slow)])
-def test_scalar_path_equals_batch_path_on_every_family(seed):
+def test_one_pair_equals_its_row_of_a_batch_on_every_family(seed):
     p = family_poses(per_case=60 if seed == 0 else 600, seed=seed)
-    inputs = prepare_inputs(*(p[k] for k in KEYS))
-    batch = box_box_batch(*inputs)
+    batch = box_box(*(p[k] for k in KEYS))
+    assert len(batch) >= PARALLEL_MIN_ROWS  # the parallel kernel answered the batch
     for i in range(len(batch)):
-        assert_rows_equal(batch, i, box_box_one(*(r[i].tolist() for r in inputs)))
+        assert_rows_equal(batch, i, box_box(*(p[k][i] for k in KEYS)))
+
+
+def test_one_pair_as_lists_and_small_batches_give_the_same_rows():
+    p = family_poses(per_case=4, seed=1)
+    batch = box_box(*(p[k] for k in KEYS))
+    for i in range(0, len(batch) - 3, 3):
+        assert_rows_equal(batch, i, box_box(*(p[k][i].tolist() for k in KEYS)))
+        small = box_box(*(p[k][i:i + 3] for k in KEYS))  # the serial kernel
+        for j in range(3):
+            assert_rows_equal(batch, i + j, small.row(j))
 
 
 def test_single_pair_accepts_lists_arrays_and_one_row_batches():

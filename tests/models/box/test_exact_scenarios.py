@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from impactnet.models.box.exact import InvalidBoxError, box_box
-from impactnet.models.box.pressure import PRESSURE_FLOOR_REL
+from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL
 from impactnet.models.geometry import box_features as bf
 from impactnet.models.geometry.rotations import (
     InvalidRotationError,

@@ -1,10 +1,9 @@
-"""The tie rule between face and edge axes (models/box/sat.py, rules 1-3) and its documented worst
-case.
+"""The tie rule between face and edge axes (models/box/kernel_sat.py, rules 1-3) and its
+documented worst case.
 
-The figures of models/box/sat.py's docstring are backed here by measurements on first-contact fuzz
-(``impactnet.models.geometry.poses.first_contact_poses``: every size family, every orientation
-family)
-and by
+The figures of models/box/kernel_sat.py's docstring are backed here by measurements on
+first-contact fuzz (``impactnet.models.geometry.poses.first_contact_poses``: every size family,
+every orientation family) and by
 scenarios whose answer is known by hand. ``c`` is the least overlap over the 15 SAT axes (the
 true penetration depth), ``u`` its axis; the worst case allowed is ``max(DEPTH_GAIN_TOL_REL x
 scale, 2 FACE_AXIS_ANGLE_TOL (rho_A + rho_B))``, rho a box's half diagonal.
@@ -25,10 +24,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from impactnet.models.box import local_frame as lf
-from impactnet.models.box import sat
-from impactnet.models.box.exact import box_box, box_box_batch, contact_axes, prepare_inputs
-from impactnet.models.box.pressure import PRESSURE_FLOOR_REL
+from impactnet.models.box import tolerances as tol
+from impactnet.models.box.decision import axis_table
+from impactnet.models.box.exact import box_box, prepare_inputs
+from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL
 from impactnet.models.geometry import box_features as bf
 from impactnet.models.geometry.poses import ORIENTATIONS, SIZE_FAMILIES, first_contact_poses
 from tests.models.box.overlap_volume import centre_of_pressure
@@ -38,14 +37,14 @@ from tests.models.helpers import KEYS
 SEED = 1000
 #: Poses per (size family, orientation family): 28 cases.
 PER_CASE, PER_CASE_SLOW = 3000, 20000
-PHI = sat.FACE_AXIS_ANGLE_TOL
+PHI = tol.FACE_AXIS_ANGLE_TOL
 #: Rounding (x pair scale, metres) of an overlap or a depth computed along two paths: a few
 #: hundred ulps of the scale (measured: 1.1e-15).
 ROUNDING_REL = 1e-13
 #: Rounding (radians) of the angle between two unit axes; the band itself is tested on a
 #: cosine, exact to ~1e-16 / phi.
 ANGLE_ROUNDING_RAD = 1e-9
-#: The reported depth's measured excess over c (x pair scale), as models/box/sat.py states it
+#: The reported depth's measured excess over c (x pair scale), as models/box/kernel_sat.py states
 #: (4.4e-7 on 560,000 poses), with margin: a regression to reporting the SAT overlap along a
 #: leaning face (up to 0.45 of the worst case, ~1e-2 of the scale) fails it.
 MEASURED_EXCESS_REL = 1e-6
@@ -62,22 +61,24 @@ IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 def fuzz(per_case, seed=SEED):
     """First-contact poses of every family (inputs validated), the solver's answers and its
-    internals: overlaps (15, n), the chosen axis, the unit normal and least axis (A's frame)."""
+    internals: overlaps (15, n), the chosen axis, the unit normal and least axis (A's frame,
+    as lines: unoriented), the pair scales."""
     chunks = [first_contact_poses(per_case, *SIZE_FAMILIES[family], rng=seed + 10 * f + o,
                                   orientation=orientation)
               for f, family in enumerate(sorted(SIZE_FAMILIES))
               for o, orientation in enumerate(ORIENTATIONS)]
-    inputs = prepare_inputs(*(np.concatenate([c[k] for c in chunks]) for k in KEYS))
-    contacts = box_box_batch(*inputs)
-    pose, _ = lf.local_pose(lf.input_columns(inputs, 0, len(inputs[0])))
-    overlap, _ = sat.overlap_columns(pose)
-    _, axis, _, normal, _ = contact_axes(pose)
-    least_axis = overlap.argmin(axis=0).astype(np.int8)
+    raw = [np.concatenate([c[k] for c in chunks]) for k in KEYS]
+    inputs = prepare_inputs(*raw)
+    contacts = box_box(*raw)
+    overlap, units, scale = axis_table(*raw)
+    rows = np.arange(len(scale))
+    axis = contacts.axis
+    least_axis = overlap.argmin(axis=1).astype(np.int8)
     rho = 0.5 * (np.linalg.norm(inputs[0], axis=1) + np.linalg.norm(inputs[3], axis=1))
-    worst = np.maximum(sat.DEPTH_GAIN_TOL_REL * pose.scale, 2 * PHI * rho)
-    return dict(inputs=inputs, contacts=contacts, pose=pose, overlap=overlap, axis=axis,
-                normal=normal, least_axis=least_axis, least_unit=sat.unit_axis(pose,
-                least_axis)[0], worst=worst)
+    worst = np.maximum(tol.DEPTH_GAIN_TOL_REL * scale, 2 * PHI * rho)
+    return dict(inputs=inputs, contacts=contacts, units=units, scale=scale,
+                overlap=overlap.T, axis=axis, normal=units[rows, axis].T,
+                least_axis=least_axis, least_unit=units[rows, least_axis].T, worst=worst)
 
 
 @pytest.fixture(scope="module", params=[PER_CASE, pytest.param(PER_CASE_SLOW,
@@ -97,18 +98,18 @@ def test_first_contact_fuzz_depth_exceeds_the_least_overlap_by_at_most_the_worst
     axis, and exceeds c by at most the documented worst case (measured: 4.0e-7 x scale, 1.2e-5
     of the worst case; the chosen axis's SAT overlap: 0.45 of it)."""
     f = fuzzed
-    c, pose, rows = f["contacts"], f["pose"], np.arange(len(f["axis"]))
+    c, scale, rows = f["contacts"], f["scale"], np.arange(len(f["axis"]))
     assert c.colliding.all()
     least = np.maximum(f["overlap"].min(axis=0), 0.0)
     along_axis = np.maximum(f["overlap"][f["axis"], rows], 0.0)
-    rounding = ROUNDING_REL * pose.scale
+    rounding = ROUNDING_REL * scale
     assert (c.depth >= least - rounding).all() and (c.depth <= along_axis + rounding).all()
     excess = ((c.depth - least) / f["worst"]).max()
     sat_excess = ((along_axis - least) / f["worst"]).max()
     assert excess <= 1.0 and sat_excess <= 1.0, (
         f"depth - c up to {excess:.3g}, SAT overlap - c up to {sat_excess:.3g} x the worst "
         "case (measured: 1.2e-5 and 0.45)")
-    measured = ((c.depth - least) / pose.scale).max()
+    measured = ((c.depth - least) / scale).max()
     assert measured <= MEASURED_EXCESS_REL, f"depth - c up to {measured:.3g} x scale (4.0e-7)"
 
 
@@ -118,7 +119,7 @@ def test_a_rejected_edge_pair_leaves_the_normal_within_the_band(fuzzed):
     (measured: up to 0.0100 rad, the band's edge)."""
     f = fuzzed
     face = f["overlap"][:6].argmin(axis=0).astype(np.int8)
-    to_face = axis_angle(f["least_unit"], sat.unit_axis(f["pose"], face)[0])
+    to_face = axis_angle(f["least_unit"], f["units"][np.arange(len(face)), face].T)
     rejected = (f["least_axis"] >= 6) & (to_face <= PHI * (1 - BAND_EDGE_REL))
     assert rejected.sum() > 1000, rejected.sum()
     assert (f["axis"][rejected] < 6).all()
@@ -152,7 +153,7 @@ def test_edge_edge_answers_cross_inside_both_edges(fuzzed):
     t = ((e * w).sum(1) - b * (d * w).sum(1)) / (1 - b * b)
     scale = 0.5 * (size_a[rows].max(1) + size_b[rows].max(1))
     margin = np.minimum(half_p - np.abs(s), half_q - np.abs(t)) / scale
-    assert margin.min() >= -sat.EDGE_INSIDE_TOL_REL, (
+    assert margin.min() >= -tol.EDGE_INSIDE_TOL_REL, (
         f"{margin.min():.3g} x scale inside an edge (measured: 3.3e-5 inside)")
     midpoint = 0.5 * (p + s[:, None] * d + q + t[:, None] * e)
     error = np.linalg.norm(c.point[rows] - midpoint, axis=1) / scale

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from impactnet.models.box.exact import box_box
-from impactnet.models.box.sat import DEPTH_GAIN_TOL_REL, FACE_AXIS_ANGLE_TOL
+from impactnet.models.box.tolerances import DEPTH_GAIN_TOL_REL, FACE_AXIS_ANGLE_TOL
 from impactnet.models.geometry.approach import axis_overlaps, axis_terms
 from impactnet.models.geometry.poses import ORIENTATIONS, SIZE_FAMILIES, first_contact_poses
 from impactnet.models.geometry.rotations import quaternion_to_matrix

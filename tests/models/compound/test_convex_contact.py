@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from impactnet.models.box.exact import box_box
-from impactnet.models.box.sat import FACE_AXIS_ANGLE_TOL
+from impactnet.models.box.tolerances import FACE_AXIS_ANGLE_TOL
 from impactnet.models.compound import crane_bodies as cb
 from impactnet.models.compound.convex_contact import convex_contacts
 from impactnet.models.compound.convex_sat import choose_axis

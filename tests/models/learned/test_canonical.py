@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from impactnet.models.box import local_frame as lf
-from impactnet.models.box.exact import box_box, solve_local
+from impactnet.models.box.decision import box_box_matrices
+from impactnet.models.box.exact import box_box
 from impactnet.models.geometry import box_features as bf
 from impactnet.models.geometry.rotations import random_quaternions
 from impactnet.models.learned import canonical as cn
@@ -25,17 +25,11 @@ SIZES = {"container20/container40": ([6.058, 2.438, 2.591], [12.192, 2.438, 2.59
          "cube/cube": ([2.0, 2.0, 2.0], [2.0, 2.0, 2.0])}
 
 
-def _local_pose(half_a, half_b, rotation, translation):
-    """A LocalPose block (as impactnet.models.box.local_frame lays it out) of row-major inputs."""
-    n = len(half_a)
-    data = np.empty((lf.LocalPose.ROWS, n))
-    pose = lf.LocalPose(data)
-    pose.ha[:], pose.hb[:] = half_a.T, half_b.T
-    pose.r[:] = rotation.reshape(n, 9).T
-    pose.t[:] = translation.T
-    pose.tb[:] = np.einsum("nij,ni->jn", rotation, translation)
-    pose.scale[:] = half_a.max(1) + half_b.max(1)
-    return pose
+def _local_solve(half_a, half_b, rotation, translation):
+    """The solver on a pose in A's frame: A at the origin, level; B at ``translation`` with the
+    matrix ``rotation`` as given (improper for a mirrored frame). The world frame is A's."""
+    return box_box_matrices(2.0 * half_a, np.zeros(3), np.eye(3), 2.0 * half_b, translation,
+                            rotation)
 
 
 @pytest.fixture(scope="module", params=sorted(SIZES))
@@ -75,24 +69,23 @@ def test_ties_give_plus_one():
 def test_exact_solver_on_canonical_pose_is_the_mapped_answer(rows):
     pose = cn.relative_pose(*(rows[k] for k in KEYS))
     c = cn.canonicalize(pose.rotation, pose.translation)
-    original = solve_local(_local_pose(*pose))
-    mirrored = solve_local(_local_pose(pose.half_a, pose.half_b, c.rotation, c.translation))
+    original = _local_solve(*pose)
+    mirrored = _local_solve(pose.half_a, pose.half_b, c.rotation, c.translation)
     scale = pose.half_a.max(1) + pose.half_b.max(1)
     tol = MIRROR_TOL_REL * scale
-    np.testing.assert_array_equal(mirrored["colliding"], original["colliding"])
-    hit = original["colliding"]
-    np.testing.assert_allclose(mirrored["depth"], original["depth"], rtol=0, atol=tol.max())
-    labels = cn.canonical_labels(
-        {k: original[k] for k in ("contact_type_code", "feature_a", "feature_b")}, c.S, c.T)
-    same = ((mirrored["contact_type_code"] == labels.contact_type_code)
-            & (mirrored["feature_a"] == labels.feature_a)
-            & (mirrored["feature_b"] == labels.feature_b))
+    np.testing.assert_array_equal(mirrored.colliding, original.colliding)
+    hit = original.colliding
+    np.testing.assert_allclose(mirrored.depth, original.depth, rtol=0, atol=tol.max())
+    labels = cn.canonical_labels(original, c.S, c.T)
+    same = ((mirrored.contact_type_code == labels.contact_type_code)
+            & (mirrored.feature_a == labels.feature_a)
+            & (mirrored.feature_b == labels.feature_b))
     assert (~same).mean() <= TIE_SHARE_MAX, np.flatnonzero(~same)[:10]
     ok = same & hit
-    normal = c.S.T * original["normal"]
-    point = c.S.T * original["point"]
-    assert np.abs(mirrored["normal"] - normal)[:, ok].max() <= 1e-9
-    assert (np.abs(mirrored["point"] - point)[:, ok] <= tol[ok]).all()
+    normal = c.S * original.normal
+    point = c.S * original.point
+    assert np.abs(mirrored.normal - normal)[ok].max() <= 1e-9
+    assert (np.abs(mirrored.point - point)[ok] <= tol[ok, None]).all()
 
 
 def test_targets_round_trip_to_the_world(rows):

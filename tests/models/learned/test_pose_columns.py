@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from impactnet.models.box.decision import single_pair
 from impactnet.models.box.exact import InvalidBoxError, prepare_inputs
-from impactnet.models.box.exact_one import single_pair
 from impactnet.models.geometry import box_features as bf
 from impactnet.models.geometry.rotations import InvalidRotationError
 from impactnet.models.learned import canonical as cn

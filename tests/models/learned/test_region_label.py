@@ -2,18 +2,17 @@
 
 Its unclipped point is the exact point only for edge-edge contacts and for parallel, aligned
 face contacts with every incident vertex touching (``exact_point``): elsewhere the exact point
-is the centre of pressure of the whole footprint (:mod:`impactnet.models.box.pressure`), and the
-unclipped
+is the centre of pressure of the whole footprint (:mod:`impactnet.models.box.kernel_pressure`),
+and the unclipped
 point (touching vertices clamped into the reference face) is the experts' baseline.
 """
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from impactnet.models.box import local_frame as lf
-from impactnet.models.box.exact import box_box_batch, prepare_inputs
-from impactnet.models.box.exact_one import box_box_one, single_pair
-from impactnet.models.box.pressure import PRESSURE_FLOOR_REL
+from impactnet.models.box.decision import box_box_one, single_pair
+from impactnet.models.box.exact import box_box
+from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL
 from impactnet.models.geometry.poses import SIZE_FAMILIES
 from impactnet.models.learned.pose_columns import checked_inputs
 from impactnet.models.learned.region_label import input_block, label_block, label_one
@@ -45,7 +44,7 @@ _LABEL_FIELDS = (("colliding", "colliding"), ("axis", "axis"),
 def assert_depth_is_the_exact_or_the_overlap(depth, exact_depth, code):
     """The labeller's depth is the SAT overlap: the exact solver's depth bit for bit, except on
     face contacts whose incident box hangs beyond the reference face, where the exact solver
-    reports the shallower deepest point of the footprint (impactnet.models.box.exact, stage 4)."""
+    reports the shallower deepest point of the footprint (impactnet.models.box.kernels, stage 4)."""
     differs = depth != exact_depth
     assert not (differs & (code == 3)).any(), "edge-edge depths must be equal"
     assert (depth[differs] > exact_depth[differs]).all()
@@ -62,9 +61,9 @@ def assert_labels_equal_exact(labels, exact, rows=slice(None)):
 @pytest.mark.parametrize("seed", [0, pytest.param(7, marks=pytest.mark.slow)])
 def test_batch_labels_equal_the_exact_solver_bit_for_bit_on_every_family(seed):
     p = family_poses(per_case=60 if seed == 0 else 600, seed=seed)
-    inputs = prepare_inputs(*(p[k] for k in KEYS))
-    exact = box_box_batch(*inputs)
-    labels = label_block(lf.input_columns(inputs, 0, len(exact)))
+    inputs = tuple(p[k] for k in KEYS)
+    exact = box_box(*inputs)
+    labels = label_block(inputs)
     assert_labels_equal_exact(labels, exact)
     assert (~exact.colliding).any() and (exact.contact_type_code == 6).any()
 
@@ -79,7 +78,7 @@ def test_labels_from_unnormalised_inputs_equal_the_exact_solver(size_a, size_b):
     scaled["quaternion_a"] = rows["quaternion_a"] * 3.0  # not unit: normalised on the way
     scaled["size_a"], scaled["size_b"] = np.array(size_a), np.array(size_b)
     inputs = checked_inputs(*(scaled[k] for k in KEYS))
-    exact = box_box_batch(*prepare_inputs(*(scaled[k] for k in KEYS)))
+    exact = box_box(*(scaled[k] for k in KEYS))
     for start, stop in ((0, 1000), (1000, 3000)):
         labels = label_block(input_block(inputs, start, stop))
         assert_labels_equal_exact(labels, exact, slice(start, stop))
@@ -90,7 +89,7 @@ def test_one_pair_labels_equal_the_scalar_exact_solver():
     for i in range(len(p["size_a"])):
         values = single_pair(*(p[k][i] for k in KEYS))
         colliding, axis, depth, normal, code, feature_a, feature_b, _, _, _ = label_one(values)
-        exact = box_box_one(*values)
+        exact = box_box_one(values)
         assert (colliding, axis, code, feature_a, feature_b) == (
             exact.colliding[0], exact.axis[0], exact.contact_type_code[0],
             exact.feature_a[0], exact.feature_b[0]), i
@@ -103,9 +102,9 @@ def unclipped_errors(per_case: int, seed: int):
     """Exact answers, labels, the unclipped point's error (x the pair's size) and the size (the
     larger box's largest edge, metres) on the pose families."""
     p = family_poses(per_case=per_case, seed=seed)
-    inputs = prepare_inputs(*(p[k] for k in KEYS))
-    exact = box_box_batch(*inputs)
-    labels = label_block(lf.input_columns(inputs, 0, len(exact)))
+    inputs = tuple(p[k] for k in KEYS)
+    exact = box_box(*inputs)
+    labels = label_block(inputs)
     size = np.maximum(inputs[0].max(1), inputs[3].max(1))
     error = np.linalg.norm(labels.unclipped.T - exact.point, axis=1) / size
     return exact, labels, error, size
@@ -142,9 +141,8 @@ def test_aligned_boxes_overlapping_anywhere_give_the_exact_point():
                               np.full(n, 2.591 - 0.001)])
     args = (np.array([12.192, 2.438, 2.591]), np.zeros(3), np.array([1.0, 0, 0, 0]),
             np.array([6.058, 2.0, 2.591]), offset, np.array([1.0, 0, 0, 0]))
-    inputs = prepare_inputs(*args)
-    exact = box_box_batch(*inputs)
-    labels = label_block(lf.input_columns(inputs, 0, n))
+    exact = box_box(*args)
+    labels = label_block(args)
     assert (exact.contact_type_code == 6).all()
     np.testing.assert_allclose(labels.unclipped.T, exact.point, atol=ROUNDING_REL * 12.192)
     assert labels.exact_point.all()  # aligned and fully touching: flagged exact
@@ -152,10 +150,9 @@ def test_aligned_boxes_overlapping_anywhere_give_the_exact_point():
 
 def test_one_pair_unclipped_point_equals_the_batch():
     p = family_poses(per_case=8, seed=13)
-    inputs = prepare_inputs(*(p[k] for k in KEYS))
-    labels = label_block(lf.input_columns(inputs, 0, len(inputs[0])))
+    labels = label_block(tuple(p[k] for k in KEYS))
     for i in range(len(p["size_a"])):
-        values = [a[i].tolist() for a in inputs]
+        values = single_pair(*(p[k][i] for k in KEYS))
         exact, one = label_one(values)[7:9]
         assert exact == labels.exact_point[i], i
         scale = max(values[0]) + max(values[3])
@@ -192,9 +189,9 @@ def test_rows_flagged_exact_have_the_exact_point():
     p = family_poses(per_case=120, seed=17)
     stacks = aligned_stacks(600, seed=17)
     p = {k: np.concatenate([p[k], stacks[k]]) for k in KEYS}
-    inputs = prepare_inputs(*(p[k] for k in KEYS))
-    exact = box_box_batch(*inputs)
-    labels = label_block(lf.input_columns(inputs, 0, len(exact)))
+    inputs = tuple(p[k] for k in KEYS)
+    exact = box_box(*inputs)
+    labels = label_block(inputs)
     size = np.maximum(inputs[0].max(1), inputs[3].max(1))
     error = np.linalg.norm(labels.unclipped.T - exact.point, axis=1) / size
     flagged, stacked = labels.exact_point, np.arange(len(exact)) >= len(exact) - 600

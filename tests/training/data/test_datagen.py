@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from impactnet.models.box.exact import box_box
-from impactnet.models.box.pressure import REGION_DEPTH_TOL_REL
+from impactnet.models.box.tolerances import REGION_DEPTH_TOL_REL
 from impactnet.models.contacts import CONTACT_TYPE_CODES
 from impactnet.models.geometry.poses import AXIS_ALIGNED_ROTATIONS, ORIENTATIONS, TILT_RANGE
 from impactnet.models.scenes import load_scene, parse_scene
