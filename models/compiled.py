@@ -157,7 +157,7 @@ def warm_up() -> int:
 #: registers its warm-up with :func:`on_warm_up` when imported.
 KERNEL_MODULES = ("impactnet.models.box.kernels", "impactnet.models.compound.kernels",
                   "impactnet.models.learned.kernels", "impactnet.models.frame.broadphase",
-                  "impactnet.models.distance.kernels")
+                  "impactnet.models.distance.kernels", "impactnet.models.distance.bodies")
 
 
 def main() -> int:

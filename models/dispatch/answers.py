@@ -1,0 +1,131 @@
+"""The one answer of N pairs of bodies, box or compound (issue #33): body-level columns and the
+ragged list of part contacts, gathered slice by slice.
+
+A box is a body of one part, so a box pair's answer has the same fields as a compound pair's:
+body level, per row ``i`` (``n`` rows): ``colliding``, ``point``, ``normal``, ``depth``,
+``contact_type`` (code), ``feature_a`` / ``feature_b`` and ``part_a`` / ``part_b`` of the
+deepest part contact (-1 without contact), ``cluster_size``, ``confidence`` and ``predictor``
+(code); per part contact (``m`` rows, row ``i``'s at ``offsets[i]:offsets[i + 1]``, the deepest
+first): :data:`CONTACT_COLUMNS`, with the manifold where asked. Part names and predictors are
+codes into small tables (:attr:`Answers.part_names`, :attr:`Answers.predictor_names`), so that
+a million part contacts hold ~90 bytes each; the service's encoders turn codes into names a
+piece at a time.
+
+A separated pair's ``normal`` is the separating direction of its closest part pair (never
+zero; a box pair's: the separating axis of largest separation), its ``point`` the midpoint
+between them. ``distance`` is ``-depth`` for a pair in contact, the gap (> 0) for a pair
+apart by less than the request's margin, and infinite beyond it; within the margin ``point``
+is the closest region's centroid (the midpoint of the closest points where they are unique).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from impactnet.models.contacts import CONTACT_TYPES, MAX_MANIFOLD_POINTS
+
+#: Per-contact columns: (name, dtype, row shape).
+CONTACT_COLUMNS = (("part_a", np.int32, ()), ("part_b", np.int32, ()),
+                   ("point", np.float64, (3,)), ("normal", np.float64, (3,)),
+                   ("depth", np.float64, ()), ("contact_type", np.int8, ()),
+                   ("feature_a", np.int32, ()), ("feature_b", np.int32, ()),
+                   ("axis", np.int8, ()), ("pressure", np.float64, ()))
+#: The manifold's columns, carried only when asked (``include=manifold``).
+MANIFOLD_COLUMNS = (("manifold_count", np.int8, ()),
+                    ("manifold_points", np.float64, (MAX_MANIFOLD_POINTS, 3)),
+                    ("manifold_depths", np.float64, (MAX_MANIFOLD_POINTS,)))
+#: Body-level columns: (name, dtype, row shape, value of a row never solved).
+BODY_COLUMNS = (("colliding", np.bool_, (), False), ("point", np.float64, (3,), 0.0),
+                ("normal", np.float64, (3,), 0.0), ("depth", np.float64, (), 0.0),
+                ("contact_type", np.int8, (), 0), ("feature_a", np.int32, (), -1),
+                ("feature_b", np.int32, (), -1), ("part_a", np.int32, (), -1),
+                ("part_b", np.int32, (), -1), ("cluster_size", np.int64, (), 0),
+                ("confidence", np.float64, (), 1.0), ("distance", np.float64, (), np.inf))
+#: Contact types by code.
+CONTACT_NAMES = np.asarray(CONTACT_TYPES)
+
+
+@dataclass(frozen=True)
+class Answers:
+    """The answers of n pairs (module docstring)."""
+
+    body: dict  # name -> (n, ...) array, BODY_COLUMNS
+    predictor: np.ndarray  # (n,) int8 codes into predictor_names
+    predictor_names: np.ndarray  # (p,) str
+    offsets: np.ndarray  # (n + 1,) int64
+    contacts: dict  # name -> (m, ...) array, CONTACT_COLUMNS (+ MANIFOLD_COLUMNS if asked)
+    part_names: np.ndarray  # (q,) str: the names of part codes
+    shapes: tuple  # the shape (a Shape) of each part code's body, for feature names
+
+    def __len__(self) -> int:
+        return len(self.predictor)
+
+    def predictor_of(self, i: int) -> str:
+        return str(self.predictor_names[self.predictor[i]])
+
+
+class Pieces:
+    """Answers of slices of rows, merged once at the end (:meth:`merged`)."""
+
+    def __init__(self, n: int, manifold: bool = False) -> None:
+        self.n, self.manifold = n, manifold
+        self.body = {name: np.full((n, *shape), fill, dtype)
+                     for name, dtype, shape, fill in BODY_COLUMNS}
+        self.predictor = np.zeros(n, np.int8)
+        self.predictor_names: list[str] = ["exact"]
+        self.part_names: list[str] = []
+        self.shapes: list = []
+        self._codes: dict[int, np.ndarray] = {}
+        self.rows: list[np.ndarray] = []
+        self.columns: list[dict] = []
+        self.contacts = 0
+
+    def codes_of(self, shape) -> np.ndarray:
+        """The codes of a body shape's part names (each shape's names added once)."""
+        key = id(shape)
+        if key not in self._codes:
+            start = len(self.part_names)
+            self.part_names += list(shape.part_names)
+            self.shapes += [shape] * len(shape.part_names)
+            self._codes[key] = np.arange(start, start + len(shape.part_names), dtype=np.int32)
+        return self._codes[key]
+
+    def predictor_codes(self, names) -> np.ndarray:
+        """Codes (k,) of predictor names (k,) or of one name."""
+        names = np.atleast_1d(np.asarray(names))
+        unique, inverse = np.unique(names, return_inverse=True)
+        for name in unique.tolist():
+            if name not in self.predictor_names:
+                self.predictor_names.append(name)
+        lookup = np.array([self.predictor_names.index(u) for u in unique.tolist()], np.int8)
+        return lookup[inverse.reshape(-1)]
+
+    def add(self, rows: np.ndarray, body: dict, predictor, contact_rows: np.ndarray,
+            columns: dict) -> None:
+        """One slice: its request rows (k,), body-level values (name -> (k, ...)), predictor
+        names, and its part contacts: their request rows (c,) and columns (name -> (c, ...))."""
+        for name, values in body.items():
+            self.body[name][rows] = values
+        self.predictor[rows] = self.predictor_codes(predictor)
+        self.rows.append(np.asarray(contact_rows, np.int64))
+        self.columns.append(columns)
+        self.contacts += len(contact_rows)
+
+    def merged(self) -> Answers:
+        """The answers, part contacts in row order (request order, then the deepest first)."""
+        row = np.concatenate(self.rows) if self.rows else np.zeros(0, np.int64)
+        depth = (np.concatenate([c["depth"] for c in self.columns]) if self.columns
+                 else np.zeros(0))
+        order = np.lexsort((-depth, row))  # rows in request order, the deepest first
+        wanted = CONTACT_COLUMNS + (MANIFOLD_COLUMNS if self.manifold else ())
+        contacts = {}
+        for name, dtype, shape in wanted:
+            parts = [c.pop(name) for c in self.columns]
+            column = np.concatenate(parts) if parts else np.zeros((0, *shape), dtype)
+            contacts[name] = column[order].astype(dtype, copy=False)
+        offsets = np.zeros(self.n + 1, np.int64)
+        np.cumsum(np.bincount(row, minlength=self.n), out=offsets[1:])
+        self.rows, self.columns = [], []
+        return Answers(self.body, self.predictor, np.asarray(self.predictor_names), offsets,
+                       contacts, np.asarray(self.part_names, dtype=str), tuple(self.shapes))

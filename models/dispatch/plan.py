@@ -1,0 +1,177 @@
+"""What a request will cost, known before any contact is solved (the dispatcher's first step).
+
+Rows of N pairs split three ways:
+
+* **box rows** (two boxes): one batched call of the box chain, whatever their sizes; their work
+  is one box-pair solve each;
+* **rows that cannot touch**: their bodies' bounding spheres do not meet (grown by the margin);
+  answered "no contact" with no per-pair setup;
+* **compound rows** (a body made of parts): grouped by their pair of shapes; the broadphase
+  counts each group's candidate part pairs under the caps (:class:`Caps`), and their work is
+  the candidates weighted by their hulls' sizes (:func:`~impactnet.models.compound.candidates.
+  pair_work`).
+
+:attr:`Plan.work` (box-pair solves) chooses where the work runs; :meth:`Plan.memory_bytes`
+is what it may allocate, reserved before it starts.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from impactnet.models.compound.candidates import Candidates, candidate_pairs
+from impactnet.models.dispatch.shapes import Pairs
+from impactnet.models.geometry.rotations import quaternion_to_matrix
+
+#: Slack (x the two radii) of the reach test: far above round-off, far below any gap.
+REACH_SLACK_REL = 1e-9
+#: Part pairs the broadphase tests in the time of one box-pair solve (~1 us).
+PART_PAIRS_PER_UNIT = 16
+#: Bytes per candidate part pair held from the count to the end (pose, part_a, part_b).
+CANDIDATE_BYTES = 24
+#: Upper bound of one slice's working set, bytes (a slice of :data:`SLICE_CANDIDATES`).
+SLICE_WORKING_BYTES = 48 << 20
+#: Candidates per slice of the narrowphase: a few tens of ms between two checkpoints.
+SLICE_CANDIDATES = 2048
+#: Bytes per part contact of the answer: the compact columns twice (slices, then their merge).
+CONTACT_BYTES = 2 * 96
+#: Bytes of the manifold of a part contact (asked with include=manifold), twice.
+MANIFOLD_BYTES = 2 * 256
+#: Bytes per row of the body-level columns and of a box row's solve.
+ROW_BYTES = 512
+
+
+@dataclass(frozen=True)
+class Caps:
+    """The caps of a request (the service's settings of the same meaning)."""
+
+    candidates_per_pose: int | None = None  # candidate part pairs of one pose
+    candidates_per_request: int | None = None  # candidate part pairs of all poses
+    contacts_per_pose: int | None = None  # part contacts of one pose
+    contacts_per_request: int | None = None  # part contacts of all poses
+
+
+class TooManyContacts(ValueError):
+    """A pose or the request passed a part-contact cap: ``row`` (None for the request),
+    ``count`` and ``cap``."""
+
+    def __init__(self, row: int | None, count: int, cap: int) -> None:
+        self.row, self.count, self.cap = row, count, cap
+        where = f"row {row}" if row is not None else "the request"
+        super().__init__(f"{where}: more than {cap} part contacts ({count})")
+
+
+@dataclass
+class Group:
+    """The compound rows of one pair of shapes."""
+
+    rows: np.ndarray  # (k,) int64 request rows
+    shape_a: object  # Shape
+    shape_b: object
+    poses: tuple  # position_a (k, 3), quaternion_a (k, 4), position_b, quaternion_b
+    chain: object | None = None  # the pair's learned chain in this mode; None: the oracle
+    candidates: Candidates | None = None  # set when counted
+
+
+@dataclass
+class Plan:
+    """A request admitted by its count (module docstring)."""
+
+    pairs: Pairs
+    mode: str
+    box_rows: np.ndarray  # (b,) rows of two boxes
+    groups: list[Group] = field(default_factory=list)  # compound rows that may touch
+    apart: list[Group] = field(default_factory=list)  # compound rows that cannot touch
+    include: tuple = ()  # "manifold"
+    margin: float = 0.0  # metres: pairs apart by less get their distance and closest points
+    candidates: int = 0  # candidate part pairs of all groups
+    work: float = 0.0  # box-pair solves
+
+    def memory_bytes(self, contacts_cap: int | None) -> int:
+        """What the solve may allocate: the rows, the candidates, one slice, the answer."""
+        contacts = self.candidates + len(self.box_rows)
+        if contacts_cap is not None:
+            contacts = min(contacts, contacts_cap)
+        per_contact = CONTACT_BYTES + (MANIFOLD_BYTES if "manifold" in self.include else 0)
+        return (len(self.pairs) * ROW_BYTES + self.candidates * CANDIDATE_BYTES
+                + SLICE_WORKING_BYTES * bool(self.candidates) + contacts * per_contact)
+
+
+def _spheres(pairs: Pairs, side: str, rows: np.ndarray):
+    """World centres (k, 3) and radii (k,) of one side's bodies on ``rows``."""
+    index = pairs.column(f"shape_{side}")[rows]
+    local = np.zeros((len(rows), 3))
+    radius = np.zeros(len(rows))
+    for k in np.unique(index):
+        at = index == k
+        local[at], radius[at] = pairs.shapes[int(k)].sphere
+    q = pairs.column(f"quaternion_{side}")[rows]
+    moved = np.einsum("nij,nj->ni", quaternion_to_matrix(q), local)
+    return pairs.column(f"position_{side}")[rows] + moved, radius
+
+
+def reachable(pairs: Pairs, rows: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """(k,) bool: ``rows`` whose bodies' bounding spheres meet, grown by ``margin``."""
+    (centre_a, radius_a), (centre_b, radius_b) = (_spheres(pairs, s, rows) for s in "ab")
+    reach = (radius_a + radius_b) * (1.0 + REACH_SLACK_REL) + margin
+    return np.linalg.norm(centre_b - centre_a, axis=1) <= reach
+
+
+def _split(pairs: Pairs, rows: np.ndarray, chains) -> list[Group]:
+    """The compound ``rows`` grouped by their pair of shapes."""
+    key = (pairs.column("shape_a")[rows].astype(np.int64) * len(pairs.shapes)
+           + pairs.column("shape_b")[rows])
+    unique, inverse = np.unique(key, return_inverse=True)
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(len(unique) + 1))
+    groups = []
+    for g, k in enumerate(unique.tolist()):
+        take = rows[order[bounds[g]:bounds[g + 1]]]
+        a, b = pairs.shapes[k // len(pairs.shapes)], pairs.shapes[k % len(pairs.shapes)]
+        groups.append(Group(take, a, b, pairs.poses(take), chains(a, b)))
+    return groups
+
+
+def plan(pairs: Pairs, mode: str, chains=lambda a, b: None, include=(),
+         margin: float = 0.0) -> Plan:
+    """The rows split (module docstring), compound rows grouped but not yet counted
+    (:func:`count`); ``chains(shape_a, shape_b)`` names a compound pair's learned chain."""
+    boxes = np.array([s.is_box for s in pairs.shapes], bool)
+    both = boxes[pairs.column("shape_a")] & boxes[pairs.column("shape_b")]
+    box_rows = np.flatnonzero(both)
+    rows = np.flatnonzero(~both)
+    near = reachable(pairs, rows) if len(rows) else np.zeros(0, bool)
+    groups = _split(pairs, rows[near], chains) if near.any() else []
+    apart = _split(pairs, rows[~near], lambda a, b: None) if (~near).any() else []
+    part_pairs = sum(len(g.rows) * len(g.shape_a.parts) * len(g.shape_b.parts)
+                     for g in groups + apart)
+    return Plan(pairs, mode, box_rows, groups, apart, tuple(include), float(margin),
+                work=len(box_rows) + part_pairs / PART_PAIRS_PER_UNIT)
+
+
+def count(plan_: Plan, caps: Caps) -> Plan:
+    """The broadphase's count of every group under ``caps`` (raises
+    :class:`~impactnet.models.compound.candidates.TooManyCandidates` with the request row)."""
+    from impactnet.models.compound.candidates import TooManyCandidates
+
+    total, work = 0, float(len(plan_.box_rows))
+    for group in plan_.groups:
+        left = None if caps.candidates_per_request is None else (
+            caps.candidates_per_request - total)
+        try:
+            group.candidates = candidate_pairs(
+                group.shape_a.parts, group.poses[0], group.poses[1], group.shape_b.parts,
+                group.poses[2], group.poses[3], caps.candidates_per_pose, left)
+        except TooManyCandidates as exc:
+            pose = None if exc.pose is None else int(group.rows[exc.pose])
+            raise TooManyCandidates(pose, exc.count if pose is not None else total + exc.count,
+                                    exc.cap if pose is not None else
+                                    caps.candidates_per_request) from None
+        total += group.candidates.total
+        work += group.candidates.work + len(group.rows)
+    for group in plan_.apart:  # their closest part pairs, by branch and bound
+        work += len(group.rows) * len(group.shape_a.parts) * len(group.shape_b.parts) / \
+            PART_PAIRS_PER_UNIT
+    plan_.candidates, plan_.work = total, work
+    return plan_

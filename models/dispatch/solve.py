@@ -1,0 +1,234 @@
+"""The dispatcher: the one entry from N pairs of bodies and a mode to their answers, for box and
+compound pairs alike (issue #33).
+
+Every pair has a chain: a learned link where the bundle serves one for that pair in that mode,
+then the exact link. Box pairs go through the box chain in one batched call whatever their
+sizes (the learned box predictors look each pair up once, and send the pairs they have no model
+for, or are unsure of, to the exact solver); compound pairs through their pair's learned chain
+(modes ``auto`` and ``committee``, where the bundle serves the pair learned) or the exact
+compound oracle. A pair recorded exact-only is settled at the first lookup: it never enters a
+learned link. The answer has one shape (:mod:`impactnet.models.dispatch.answers`).
+
+    dispatcher = Dispatcher()                       # exact only, or with a bundle's chains
+    answers = dispatcher.answer(pairs, mode="exact")
+
+A server splits the same work in three steps, to admit it before it runs:
+:meth:`Dispatcher.plan` (cheap: the split), :meth:`Dispatcher.count` (the broadphase's count
+under the caps), then :meth:`Dispatcher.solve` (slices, a deadline checkpoint between them,
+the part-contact caps checked slice by slice).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from impactnet.models.box.exact import box_box
+from impactnet.models.compiled import CHUNK_ROWS, chunks
+from impactnet.models.compound.body_table import body_table
+from impactnet.models.compound.candidates import answer_of_poses, pose_slices
+from impactnet.models.dispatch import plan as plans
+from impactnet.models.dispatch.answers import Answers, Pieces
+from impactnet.models.dispatch.shapes import Pairs
+from impactnet.models.distance.bodies import body_gaps, hull_gaps
+from impactnet.models.work import checkpoint
+
+#: Predictor name of the compound oracle's rows.
+ORACLE = "oracle"
+
+
+class Dispatcher:
+    """Chains per pair (module docstring).
+
+    Parameters
+    ----------
+    box_predictors : dict, optional
+        Mode -> a box predictor (``box_box``'s signature, returning `Contacts` with
+        ``predictor`` and ``confidence``) for the learned modes; mode ``exact`` is always
+        :func:`~impactnet.models.box.exact.box_box`.
+    compound_chains : dict, optional
+        ``"a/b"`` (scene object names) -> the learned chain of a compound pair the bundle
+        serves learned.
+    """
+
+    def __init__(self, box_predictors: dict | None = None,
+                 compound_chains: dict | None = None) -> None:
+        self.box_predictors = {"exact": box_box, **(box_predictors or {})}
+        self.compound_chains = compound_chains or {}
+
+    def _chains(self, mode: str):
+        if mode not in ("auto", "committee") or not self.compound_chains:
+            return lambda a, b: None
+        return lambda a, b: (self.compound_chains.get(f"{a.name}/{b.name}")
+                             if a.name and b.name else None)
+
+    def plan(self, pairs: Pairs, mode: str = "exact", include=(),
+             margin: float = 0.0) -> plans.Plan:
+        """The split of the rows (cheap: :func:`impactnet.models.dispatch.plan.plan`)."""
+        return plans.plan(pairs, mode, self._chains(mode), include, margin)
+
+    def count(self, plan: plans.Plan, caps: plans.Caps = plans.Caps()) -> plans.Plan:
+        """The broadphase's count under ``caps`` (:func:`impactnet.models.dispatch.plan.
+        count`)."""
+        return plans.count(plan, caps)
+
+    def solve(self, plan: plans.Plan, caps: plans.Caps = plans.Caps()) -> Answers:
+        """The answers of a counted plan (module docstring)."""
+        pieces = Pieces(len(plan.pairs), "manifold" in plan.include)
+        if len(plan.box_rows):
+            _box_rows(pieces, plan, self.box_predictors[plan.mode], caps)
+            if plan.margin > 0.0:
+                _box_gaps(pieces, plan)
+        for group in plan.groups:
+            for start, stop in pose_slices(group.candidates.counts, plans.SLICE_CANDIDATES):
+                checkpoint()
+                _compound_slice(pieces, group, start, stop, plan.mode, caps)
+            _gaps(pieces, group, ~pieces.body["colliding"][group.rows], plan.margin)
+        for group in plan.apart:
+            pieces.add(group.rows, {}, ORACLE, np.zeros(0, np.int64), _no_contacts())
+            _gaps(pieces, group, np.ones(len(group.rows), bool), plan.margin)
+        return pieces.merged()
+
+    def answer(self, pairs: Pairs, mode: str = "exact", include=(), margin: float = 0.0,
+               caps: plans.Caps = plans.Caps()) -> Answers:
+        """Plan, count and solve in one call (a library caller)."""
+        return self.solve(self.count(self.plan(pairs, mode, include, margin), caps), caps)
+
+
+def _check_contacts(counts: np.ndarray, rows: np.ndarray, total: int,
+                    caps: plans.Caps) -> None:
+    if caps.contacts_per_pose is not None and counts.size and counts.max() > \
+            caps.contacts_per_pose:
+        worst = int(np.argmax(counts))
+        raise plans.TooManyContacts(int(rows[worst]), int(counts[worst]),
+                                    caps.contacts_per_pose)
+    if caps.contacts_per_request is not None and total > caps.contacts_per_request:
+        raise plans.TooManyContacts(None, total, caps.contacts_per_request)
+
+
+def _contact_columns(c, rows, code_a, code_b, manifold: bool) -> dict:
+    """Part-contact columns of `Contacts` rows ``rows`` (their parts' codes given)."""
+    out = {"part_a": code_a, "part_b": code_b, "point": c.point[rows],
+           "normal": c.normal[rows], "depth": c.depth[rows],
+           "contact_type": c.contact_type_code[rows].astype(np.int8),
+           "feature_a": c.feature_a[rows].astype(np.int32),
+           "feature_b": c.feature_b[rows].astype(np.int32),
+           "axis": c.axis[rows].astype(np.int8), "pressure": c.pressure[rows]}
+    if manifold:
+        out |= {"manifold_count": c.manifold_count[rows],
+                "manifold_points": c.manifold_points[rows],
+                "manifold_depths": np.maximum(c.manifold_depths[rows], 0.0) + 0.0}
+    return out
+
+
+def _box_rows(pieces: Pieces, plan: plans.Plan, predictor, caps: plans.Caps) -> None:
+    """The box rows through the box chain, in chunks (one contact per touching pair)."""
+    pairs, rows = plan.pairs, plan.box_rows
+    shapes = pairs.shapes
+    sizes = np.array([s.size if s.is_box else (1.0, 1.0, 1.0) for s in shapes])
+    code = np.array([pieces.codes_of(s)[0] if s.is_box else -1 for s in shapes], np.int32)
+    index_a, index_b = pairs.column("shape_a"), pairs.column("shape_b")
+    for start, stop in chunks(len(rows), CHUNK_ROWS):
+        at = rows[start:stop]
+        p_a, q_a, p_b, q_b = pairs.poses(at)
+        c = predictor(sizes[index_a[at]], p_a, q_a, sizes[index_b[at]], p_b, q_b)
+        hit = np.flatnonzero(c.colliding)
+        _check_contacts(np.zeros(0), at, pieces.contacts + len(hit), caps)
+        parts_a = np.where(c.colliding, code[index_a[at]], -1)
+        parts_b = np.where(c.colliding, code[index_b[at]], -1)
+        body = {"colliding": c.colliding, "point": c.point, "normal": c.normal,
+                "depth": c.depth, "contact_type": c.contact_type_code,
+                "feature_a": c.feature_a, "feature_b": c.feature_b, "part_a": parts_a,
+                "part_b": parts_b, "cluster_size": c.colliding.astype(np.int64),
+                "confidence": c.confidence,
+                "distance": np.where(c.colliding, -c.depth, np.inf)}
+        pieces.add(at, body, c.predictor, at[hit],
+                   _contact_columns(c, hit, parts_a[hit], parts_b[hit], pieces.manifold))
+
+
+def _deepest(parts, n: int) -> np.ndarray:
+    """(n,) the row of each pose's deepest part contact (-1 where none)."""
+    deepest = np.full(n, -1, np.int64)
+    counts = np.diff(parts.offsets)
+    hit = counts > 0
+    if hit.any():
+        order = np.lexsort((-parts.contacts.depth, parts.pose))
+        deepest[hit] = order[parts.offsets[:-1][hit]]
+    return deepest
+
+
+def _compound_slice(pieces: Pieces, group: plans.Group, start: int, stop: int, mode: str,
+                    caps: plans.Caps) -> None:
+    """Poses ``start:stop`` of a group through its chain or the oracle."""
+    if group.chain is None:
+        answer = answer_of_poses(group.shape_a.parts, *group.poses[:2], group.shape_b.parts,
+                                 *group.poses[2:], group.candidates, start, stop)
+        parts, summary, predictor = answer.parts, answer.summary, ORACLE
+    else:
+        p_a, q_a, p_b, q_b = (c[start:stop] for c in group.poses)
+        got = group.chain.answer(p_a, q_a, p_b, q_b, fallback=mode == "auto")
+        parts, summary, predictor = got.parts, got.summary, got.predictor
+    rows = group.rows[start:stop]
+    _check_contacts(np.diff(parts.offsets), rows, pieces.contacts + len(parts.pose), caps)
+    codes_a, codes_b = pieces.codes_of(group.shape_a), pieces.codes_of(group.shape_b)
+    c = parts.contacts
+    deepest = _deepest(parts, stop - start)
+    hit = deepest >= 0
+    pick = np.where(hit, deepest, 0)
+
+    def of_deepest(values, empty):
+        return np.where(hit, values[pick], empty) if len(values) else np.full(len(hit), empty)
+
+    body = {"colliding": summary.colliding, "point": summary.point, "normal": summary.normal,
+            "depth": summary.depth, "cluster_size": summary.cluster_size,
+            "contact_type": of_deepest(c.contact_type_code, 0),
+            "feature_a": of_deepest(c.feature_a, -1), "feature_b": of_deepest(c.feature_b, -1),
+            "part_a": of_deepest(codes_a[parts.part_a], -1),
+            "part_b": of_deepest(codes_b[parts.part_b], -1),
+            "confidence": of_deepest(c.confidence, 1.0),
+            "distance": np.where(summary.colliding, -summary.depth, np.inf)}
+    every = np.arange(len(parts.pose))
+    pieces.add(rows, body, predictor, rows[parts.pose],
+               _contact_columns(c, every, codes_a[parts.part_a], codes_b[parts.part_b],
+                                pieces.manifold))
+
+
+def _no_contacts() -> dict:
+    """The part-contact columns of a slice without contacts."""
+    from impactnet.models.dispatch.answers import CONTACT_COLUMNS
+
+    return {name: np.zeros((0, *shape), dtype) for name, dtype, shape in CONTACT_COLUMNS}
+
+
+def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) -> None:
+    """Rows ``apart`` (k,) of a compound group, without contact: the separating direction and
+    the midpoint of their closest part pair (:mod:`impactnet.models.distance.bodies`); the
+    gap as their distance where it is within ``margin``."""
+    if not apart.any():
+        return
+    rows = group.rows[apart]
+    p_a, q_a, p_b, q_b = (c[apart] for c in group.poses)
+    gaps = body_gaps(body_table(group.shape_a.parts), body_table(group.shape_b.parts), p_a,
+                     q_a, p_b, q_b)
+    within = gaps.distance <= margin
+    pieces.body["normal"][rows] = gaps.direction
+    pieces.body["point"][rows] = gaps.point
+    pieces.body["distance"][rows] = np.where(within, gaps.distance, np.inf)
+
+
+def _box_gaps(pieces: Pieces, plan: plans.Plan) -> None:
+    """Box rows apart by less than the margin: their gap and the closest region's centroid
+    (the box solver's separating axis stays their normal); one call whatever their sizes."""
+    rows = plan.box_rows[~pieces.body["colliding"][plan.box_rows]]
+    if not len(rows):
+        return
+    rows = rows[plans.reachable(plan.pairs, rows, plan.margin)]
+    if not len(rows):
+        return
+    hulls = [body_table(s.parts).hulls[0] if s.is_box else None for s in plan.pairs.shapes]
+    used = sorted({int(k) for side in "ab" for k in plan.pairs.column(f"shape_{side}")[rows]})
+    slot = {k: i for i, k in enumerate(used)}
+    index = [np.array([slot[int(k)] for k in plan.pairs.column(f"shape_{side}")[rows]])
+             for side in "ab"]
+    gaps = hull_gaps([hulls[k] for k in used], *index, *plan.pairs.poses(rows))
+    within = gaps.distance <= plan.margin
+    pieces.body["distance"][rows[within]] = gaps.distance[within]
+    pieces.body["point"][rows[within]] = gaps.point[within]

@@ -1,0 +1,192 @@
+"""The gap between two bodies made of parts: the smallest gap over their part pairs, with the
+closest part pair, compiled (issue #34; a separated pair's normal, issue #33).
+
+Per row (one pose of two bodies), by branch and bound: every part pair's lower bound is the
+distance between A's part's bounds and B's part's bounds as seen in A's frame (B's box of
+bounds turned into A's frame and bounded again: a box that holds the part); the pairs are
+visited in increasing bound, each
+solved exactly (:func:`~impactnet.models.distance.kernels.gap_row`), until the next bound is
+no smaller than the best gap found, or than the ``limit`` the caller cares about (a frame's
+margin: pairs farther apart need no answer). A box is a body of one part.
+
+Answers in the world frame: the gap (m; 0 touching or overlapping), the closest points on A
+and B and their midpoint (the closest region's centroid where it is not unique), the unit
+direction from A towards B, and the closest part pair (-1, -1 beyond the limit).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from impactnet.models import compiled
+from impactnet.models.distance.kernels import gap_row, scratch_slots
+from impactnet.models.distance.tables import tables_of_hulls
+from impactnet.models.geometry.rotations import quaternion_to_matrix
+
+#: Part pairs a row may hold in its bounds buffer (bodies of more parts are refused earlier:
+#: 128 parts a body, inline).
+MAX_PART_PAIRS = 1 << 16
+
+
+@dataclass(frozen=True)
+class BodyGaps:
+    """The gaps of N poses of two bodies (module docstring), world frame."""
+
+    distance: np.ndarray  # (n,) m; inf beyond the limit
+    point_a: np.ndarray  # (n, 3)
+    point_b: np.ndarray  # (n, 3)
+    point: np.ndarray  # (n, 3)
+    direction: np.ndarray  # (n, 3) unit, A towards B; 0 touching
+    part_a: np.ndarray  # (n,) int64 closest parts; -1 beyond the limit
+    part_b: np.ndarray
+
+
+def _boxes(hulls) -> tuple[np.ndarray, np.ndarray]:
+    """(centres (H, 3), half extents (H, 3)) of the hulls' bounds, body frames, metres."""
+    centre = np.empty((len(hulls), 3))
+    half = np.empty((len(hulls), 3))
+    for h, hull in enumerate(hulls):
+        lo, hi = hull.vertices.min(axis=0), hull.vertices.max(axis=0)
+        centre[h], half[h] = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    return centre, half
+
+
+def pair_tables(table_a, table_b):
+    """(hull tables of A's then B's parts, their bounds' centres and half extents, A's part
+    count)."""
+    hulls = tuple(table_a.hulls) + tuple(table_b.hulls)
+    centre, half = _boxes(hulls)
+    return tables_of_hulls(hulls), centre, half, len(table_a.hulls)
+
+
+@compiled.jit
+def _lower_bound(centre, half, i, j, t, r):
+    """A lower bound of the gap between A's part i and B's part j: the distance between A's
+    bounds and B's bounds turned into A's frame and bounded again."""
+    total = 0.0
+    for c in range(3):
+        mid, reach = t[c], 0.0
+        for m in range(3):
+            mid += r[c, m] * centre[j, m]
+            reach += abs(r[c, m]) * half[j, m]
+        gap = abs(mid - centre[i, c]) - half[i, c] - reach
+        if gap > 0.0:
+            total += gap * gap
+    return math.sqrt(total)
+
+
+@compiled.jit
+def _row(tables, centre, half, parts_a, t, r, limit, work, bounds, order_buf, one, out, row):
+    """One pose (module docstring): the gap written at ``row`` of ``out`` (A's frame)."""
+    vertices, start, size = tables
+    n_hulls = size.shape[0]
+    k = 0
+    for i in range(parts_a):
+        for j in range(parts_a, n_hulls):
+            bounds[k] = _lower_bound(centre, half, i, j, t, r)
+            order_buf[k] = i * n_hulls + j
+            k += 1
+    order = np.argsort(bounds[:k])
+    distance, point_a, point_b, point, direction, part_a, part_b = out
+    best = limit
+    distance[row], part_a[row], part_b[row] = np.inf, -1, -1
+    for m in range(k):
+        pair = order_buf[order[m]]
+        if bounds[order[m]] >= best:
+            break
+        i, j = pair // n_hulls, pair % n_hulls
+        gap_row(vertices, start, size, i, j, t, r, work, 0, *one)
+        if one[0][0] < best:
+            best = one[0][0]
+            distance[row], part_a[row], part_b[row] = best, i, j - parts_a
+            for c in range(3):
+                point_a[row, c], point_b[row, c] = one[1][0, c], one[2][0, c]
+                point[row, c], direction[row, c] = one[3][0, c], one[4][0, c]
+            if best <= 0.0:
+                break
+
+
+@compiled.jit
+def _rows(tables, centre, half, parts_a, t, r, limit, out):
+    """:func:`_row` over every pose (serial)."""
+    work = np.empty(scratch_slots(int(np.max(np.diff(tables[1])))))
+    pairs = parts_a * (tables[2].shape[0] - parts_a)
+    bounds, order_buf = np.empty(pairs), np.empty(pairs, np.int64)
+    one = (np.empty(1), np.empty((1, 3)), np.empty((1, 3)), np.empty((1, 3)), np.empty((1, 3)))
+    for row in range(t.shape[0]):
+        _row(tables, centre, half, parts_a, t[row], r[row], limit, work, bounds, order_buf,
+             one, out, row)
+
+
+def body_gaps(table_a, table_b, position_a, quaternion_a, position_b, quaternion_b,
+              limit: float = np.inf) -> BodyGaps:
+    """The gaps of N poses of two bodies (body tables of :mod:`impactnet.models.compound.
+    body_table`; poses (n, 3) metres, (n, 4) unit quaternions); pairs farther apart than
+    ``limit`` (m) answer an infinite distance and no parts."""
+    tables, centre, half, parts_a = pair_tables(table_a, table_b)
+    if parts_a * (len(half) - parts_a) > MAX_PART_PAIRS:
+        raise ValueError(f"{parts_a} x {len(half) - parts_a} part pairs: more than "
+                         f"{MAX_PART_PAIRS}")
+    rot_a, t, r = _relative(position_a, quaternion_a, position_b, quaternion_b)
+    n = len(t)
+    out = (np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)),
+           np.empty((n, 3)), np.empty(n, np.int64), np.empty(n, np.int64))
+    flat = (tables.vertices, tables.vertex_start, tables.hull_size)
+    for lo, hi in compiled.chunks(n):
+        _rows(flat, centre, half, parts_a, t[lo:hi], r[lo:hi], float(limit),
+              tuple(o[lo:hi] for o in out))
+    return _world(position_a, rot_a, *out)
+
+
+@compiled.jit
+def _indexed_rows(tables, hull_a, hull_b, t, r, out):
+    """The gap of row k between hulls ``hull_a[k]`` and ``hull_b[k]`` of one table (serial)."""
+    work = np.empty(scratch_slots(int(np.max(np.diff(tables[1])))))
+    distance, point_a, point_b, point, direction = out
+    for row in range(t.shape[0]):
+        gap_row(tables[0], tables[1], tables[2], hull_a[row], hull_b[row], t[row], r[row], work,
+                row, distance, point_a, point_b, point, direction)
+
+
+def _relative(position_a, quaternion_a, position_b, quaternion_b):
+    """(R_A (n, 3, 3), t (n, 3), R (n, 3, 3)): B's pose in A's frame."""
+    rot_a, rot_b = quaternion_to_matrix(quaternion_a), quaternion_to_matrix(quaternion_b)
+    ra_t = rot_a.transpose(0, 2, 1)
+    t = np.ascontiguousarray(np.einsum("nij,nj->ni", ra_t, position_b - position_a))
+    return rot_a, t, np.ascontiguousarray(ra_t @ rot_b)
+
+
+def _world(position_a, rot_a, distance, pa, pb, mid, direction, part_a, part_b) -> BodyGaps:
+    world = [position_a + np.einsum("nij,nj->ni", rot_a, v) for v in (pa, pb, mid)]
+    return BodyGaps(distance, *world, np.einsum("nij,nj->ni", rot_a, direction), part_a,
+                    part_b)
+
+
+def hull_gaps(hulls, hull_a, hull_b, position_a, quaternion_a, position_b,
+              quaternion_b) -> BodyGaps:
+    """The gaps of N rows, row k between ``hulls[hull_a[k]]`` and ``hulls[hull_b[k]]`` (each a
+    body of one part, e.g. boxes of many sizes), world frame; parts are the hull indices."""
+    tables = tables_of_hulls(tuple(hulls))
+    rot_a, t, r = _relative(position_a, quaternion_a, position_b, quaternion_b)
+    n = len(t)
+    out = (np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)))
+    hull_a = np.ascontiguousarray(hull_a, np.int64)
+    hull_b = np.ascontiguousarray(hull_b, np.int64)
+    flat = (tables.vertices, tables.vertex_start, tables.hull_size)
+    for lo, hi in compiled.chunks(n):
+        _indexed_rows(flat, hull_a[lo:hi], hull_b[lo:hi], t[lo:hi], r[lo:hi],
+                      tuple(o[lo:hi] for o in out))
+    return _world(position_a, rot_a, *out, hull_a, hull_b)
+
+
+@compiled.on_warm_up
+def _warm_up() -> None:
+    from impactnet.models.compound.body_table import TransientParts, body_table
+    from impactnet.models.compound.parts import BoxPart
+
+    box = body_table(TransientParts((BoxPart("box", (1.0, 1.0, 1.0)),)))
+    level = np.array([[1.0, 0.0, 0.0, 0.0]])
+    body_gaps(box, box, np.zeros((1, 3)), level, np.array([[0.0, 0.0, 2.0]]), level)
+    hull_gaps(box.hulls, [0], [0], np.zeros((1, 3)), level, np.array([[0.0, 0.0, 2.0]]), level)
