@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from impactnet.models.work import checkpoint
-from impactnet.service.api.errors import UnsupportedPair
 from impactnet.service.codecs.pairs import paper_angles, predict_checked
+from impactnet.service.errors import UnsupportedPair
 from impactnet.service.limits.budget import Lease
 from impactnet.service.predictors import PairInputs
 

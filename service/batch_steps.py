@@ -19,7 +19,6 @@ import numpy as np
 from pydantic import ValidationError
 
 from impactnet.service import compound_solve as cs
-from impactnet.service.api.errors import InputError, validation_items
 from impactnet.service.api.schemas import BatchOptions
 from impactnet.service.batch_solve import PAIR_INPUT_BYTES, solve_batch
 from impactnet.service.codecs import columns as col
@@ -27,6 +26,7 @@ from impactnet.service.codecs import compound_encode
 from impactnet.service.codecs.answer_encode import STREAM_ROWS, encode_json, encode_npz
 from impactnet.service.codecs.batch_json import parse_json_batch
 from impactnet.service.codecs.npz import parse_npz
+from impactnet.service.errors import InputError, validation_items
 from impactnet.service.limits.budget import Lease
 from impactnet.service.predictors import PairInputs, ServingState
 

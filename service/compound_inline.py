@@ -20,10 +20,10 @@ from impactnet.models.compound.meshes import HullWarning
 from impactnet.models.compound.part_limits import LimitExceeded, PartLimits, check_counts
 from impactnet.models.compound.scene_parts import compound_parts
 from impactnet.models.scene_fields import SceneError
-from impactnet.service.api.errors import InputError, LimitRefused
 from impactnet.service.api.schemas import OBJECT_NAME_MAX, Body, ContactRequest
 from impactnet.service.codecs.pairs import quaternion_of, unknown_object_reason
 from impactnet.service.compound_solve import Group, box_parts
+from impactnet.service.errors import InputError, LimitRefused
 from impactnet.service.scene import SceneView
 
 

@@ -43,8 +43,8 @@ from impactnet.models.compound.candidates import (
 from impactnet.models.compound.parts import BoxPart
 from impactnet.models.geometry.rotations import quaternion_to_matrix
 from impactnet.models.work import checkpoint
-from impactnet.service.api.errors import LimitRefused
 from impactnet.service.compound_arrays import CompoundArrays, Pieces
+from impactnet.service.errors import LimitRefused
 from impactnet.service.limits.budget import Lease
 from impactnet.service.predictors import PairInputs
 from impactnet.service.scene import SceneView

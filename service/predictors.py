@@ -4,7 +4,7 @@ Modes: ``exact`` (the SAT solver, always there), ``single``, ``committee``, ``au
 from a bundle): the predictors of :func:`impactnet.models.load_predictor`, called directly
 with :func:`pair_args`;
 :mod:`impactnet.service.state` builds them). A mode that cannot answer raises
-:class:`impactnet.service.api.errors.ModeUnavailable` (409: nothing serves it); a strict learned
+:class:`impactnet.service.errors.ModeUnavailable` (409: nothing serves it); a strict learned
 mode on a
 pair its bundle does not cover raises
 :class:`impactnet.models.learned.pair_dispatch.UnsupportedPairError`
@@ -27,7 +27,7 @@ import numpy as np
 from impactnet import __version__
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.predictors import PREDICTOR_NAMES
-from impactnet.service.api.errors import ModeUnavailable
+from impactnet.service.errors import ModeUnavailable
 from impactnet.service.scene import SceneView
 
 #: The learned modes (every mode the API knows is models.predictors.PREDICTOR_NAMES; which of

@@ -2,7 +2,7 @@
 
 :meth:`Reloader.reload` runs in a worker thread (the event loop keeps answering) and takes
 these steps; the first that fails ends the reload with
-:class:`impactnet.service.api.errors.ReloadFailed`
+:class:`impactnet.service.errors.ReloadFailed`
 naming it, and the state that was serving keeps serving, untouched:
 
 1. ``resolve``: the folder: the one the request names (relative paths from the server's
@@ -36,7 +36,7 @@ import threading
 import time
 from pathlib import Path
 
-from impactnet.service.api.errors import ReloadFailed
+from impactnet.service.errors import ReloadFailed
 from impactnet.service.predictors import warm_up
 from impactnet.service.runtime import Runtime
 from impactnet.service.state import LoadError, configured_bundle, state_for

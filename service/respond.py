@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from starlette.types import ASGIApp, Scope, Send
 
-from impactnet.service.api.errors import error_body
+from impactnet.service.errors import error_body
 from impactnet.service.runtime import Runtime
 
 _JSON_HEADERS = [(b"content-type", b"application/json")]
@@ -28,7 +28,7 @@ def header(scope: Scope, name: bytes) -> bytes | None:
 async def send_error(send: Send, status: int, error: str, message: str,
                      headers: list[tuple[bytes, bytes]] | None = None,
                      more_body: bool = False) -> None:
-    """Answer with the JSON error envelope (:func:`impactnet.service.api.errors.error_body`);
+    """Answer with the JSON error envelope (:func:`impactnet.service.errors.error_body`);
     ``more_body``: the answer is complete for the client (its Content-Length) but not yet for
     the server, which may still read the request (the caller ends it with an empty body)."""
     body = error_body(status, error, message)

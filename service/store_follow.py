@@ -38,7 +38,7 @@ import time
 from pathlib import Path
 
 from impactnet.models.bundle.format import BundleError
-from impactnet.service.api.errors import ReloadFailed
+from impactnet.service.errors import ReloadFailed
 from impactnet.service.limits.bundle_guard import store_pointer
 from impactnet.service.reload import Reloader
 from impactnet.service.runtime import Runtime

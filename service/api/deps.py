@@ -9,7 +9,7 @@ from typing import Annotated
 
 from fastapi import Depends, Request
 
-from impactnet.service.api.errors import NotReady
+from impactnet.service.errors import NotReady
 from impactnet.service.predictors import ServingState
 from impactnet.service.runtime import Runtime
 

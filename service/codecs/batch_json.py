@@ -37,7 +37,6 @@ import threading
 import numpy as np
 from pydantic_core import from_json
 
-from impactnet.service.api.errors import DuplicateKey, InputError, PayloadTooLarge
 from impactnet.service.codecs import scan
 from impactnet.service.codecs.columns import (
     COLUMNS,
@@ -48,6 +47,7 @@ from impactnet.service.codecs.columns import (
 )
 from impactnet.service.codecs.json_keys import check_no_duplicates
 from impactnet.service.codecs.json_split import split_columns
+from impactnet.service.errors import DuplicateKey, InputError, PayloadTooLarge
 from impactnet.service.limits.budget import Lease
 
 #: Upper bounds of jiter's peak memory (bytes, CPython 3.11, peak RSS of 1e6-item bodies):

@@ -15,7 +15,6 @@ import math
 import numpy as np
 
 from impactnet.models.geometry.rotations import InvalidRotationError, rotation_to_quaternion
-from impactnet.service.api.errors import InputError, PayloadTooLarge
 from impactnet.service.api.schemas import (
     ANGLE_MAX,
     OBJECT_NAME_MAX,
@@ -24,6 +23,7 @@ from impactnet.service.api.schemas import (
     SIZE_MIN_M,
 )
 from impactnet.service.codecs.pairs import rotation_reason, unknown_object_reason
+from impactnet.service.errors import InputError, PayloadTooLarge
 from impactnet.service.predictors import PairInputs
 from impactnet.service.scene import SceneView
 

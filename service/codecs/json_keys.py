@@ -19,9 +19,9 @@ import json
 import re
 import typing
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
-from impactnet.service.api.errors import DuplicateKey, InputError, validated_json
+from impactnet.service.errors import DuplicateKey, InputError, InvalidBody, ServiceError
 
 #: A JSON string (escapes included), optionally followed by the colon that makes it a key; or
 #: a brace that opens or closes an object.
@@ -86,8 +86,23 @@ def first_duplicate_key(raw: bytes) -> str | None:
     return None
 
 
+def validated_json(model, raw: bytes, content_type: str | None):
+    """``model`` (a pydantic model class) parsed and validated from the JSON body ``raw`` in one
+    pass (pydantic's strict JSON parser: no NaN / Infinity tokens, no numbers as strings;
+    invalid UTF-8 is malformed JSON). A missing Content-Type counts as JSON; anything but JSON
+    is 415, an invalid body 422 (:class:`InvalidBody`)."""
+    media = (content_type or "application/json").split(";", 1)[0].strip().lower()
+    if media != "application/json" and not media.endswith("+json"):
+        raise ServiceError(415, "unsupported_media_type", f"Content-Type {media!r}; send "
+                           "application/json")
+    try:
+        return model.model_validate_json(raw)
+    except ValidationError as exc:
+        raise InvalidBody(exc.errors(include_url=False, include_input=False)) from exc
+
+
 def check_no_duplicates(raw: bytes, keys: int) -> None:
-    """Raise :class:`impactnet.service.api.errors.DuplicateKey` (422, naming the key) when the valid
+    """Raise :class:`impactnet.service.errors.DuplicateKey` (422, naming the key) when the valid
     JSON
     document ``raw``, whose parse kept ``keys`` distinct keys, repeats one."""
     if raw.count(b":") <= keys:
@@ -135,7 +150,7 @@ def _colons_outside_strings(raw: bytes) -> int:
 
 
 def validated_unique(model, raw: bytes, content_type: str | None):
-    """:func:`impactnet.service.api.errors.validated_json`, then the duplicate-key check. A body
+    """:func:`validated_json`, then the duplicate-key check. A body
     with more
     keys than ``model`` knows is refused first, unparsed (422 naming a repeated key, else
     ``too_many_keys``): validating thousands of unknown keys held the event loop's GIL for

@@ -23,9 +23,9 @@ import zipfile
 
 import numpy as np
 
-from impactnet.service.api.errors import InputError, Overloaded, PayloadTooLarge
 from impactnet.service.codecs import scan
 from impactnet.service.codecs.columns import COLUMNS, tail_of, too_many_pairs, unknown_column
+from impactnet.service.errors import InputError, Overloaded, PayloadTooLarge
 from impactnet.service.limits.budget import Lease
 
 #: Most members an npz body may hold: a batch has at most 6 columns per side, 12 in all.

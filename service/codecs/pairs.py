@@ -19,8 +19,8 @@ from impactnet.models.geometry.rotations import (
     rotation_to_quaternion,
 )
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
-from impactnet.service.api.errors import InputError, UnsupportedPair
 from impactnet.service.api.schemas import Body, ContactRequest
+from impactnet.service.errors import InputError, UnsupportedPair
 from impactnet.service.predictors import PairInputs, pair_args
 from impactnet.service.scene import SceneView
 

@@ -33,7 +33,7 @@ import time
 
 from starlette.types import Message, Receive, Scope, Send
 
-from impactnet.service.api.errors import Overloaded, PayloadTooLarge
+from impactnet.service.errors import Overloaded, PayloadTooLarge
 from impactnet.service.limits.budget import Lease
 from impactnet.service.respond import Middleware, header, send_error
 from impactnet.service.runtime import Runtime

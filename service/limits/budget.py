@@ -21,7 +21,7 @@ import asyncio
 import threading
 import time
 
-from impactnet.service.api.errors import Overloaded, PayloadTooLarge
+from impactnet.service.errors import Overloaded, PayloadTooLarge
 
 #: Seconds between two tries of a reservation that waits on the event loop: short against
 #: `memory_wait_s` (seconds), long enough not to spin.

@@ -25,7 +25,7 @@ from concurrent.futures import ThreadPoolExecutor
 from starlette.types import Receive
 
 from impactnet.models.work import CANCELLED, WorkLimit, WorkStopped, limited
-from impactnet.service.api.errors import DeadlineExceeded, Overloaded, ServiceError
+from impactnet.service.errors import DeadlineExceeded, Overloaded, ServiceError
 
 #: Threads of the small-work lane: one, so that small work never competes with itself for
 #: the two cores, and the large lane keeps its `max_batch_workers`.

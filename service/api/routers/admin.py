@@ -20,10 +20,10 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.responses import Response
 
 from impactnet.service.api.deps import RuntimeDep
-from impactnet.service.api.errors import ReloadFailed, ServiceError
 from impactnet.service.api.routers import ERRORS
 from impactnet.service.api.schemas import ErrorResponse, ReloadRequest, ReloadResponse
 from impactnet.service.codecs.json_keys import validated_unique
+from impactnet.service.errors import ReloadFailed, ServiceError
 
 router = APIRouter(tags=["admin"])
 bearer = HTTPBearer(auto_error=False, scheme_name="AdminToken",

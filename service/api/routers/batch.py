@@ -8,12 +8,12 @@ from starlette.responses import Response
 
 from impactnet.service import batch_steps as steps
 from impactnet.service.api.deps import RuntimeDep, ServingDep
-from impactnet.service.api.errors import ServiceError
 from impactnet.service.api.routers import ERRORS
 from impactnet.service.api.schemas import BatchResponse, EulerConvention, Include, Mode
 from impactnet.service.codecs import columns as col
 from impactnet.service.codecs import compound_encode
 from impactnet.service.codecs.answer_encode import StreamedAnswer, json_pieces
+from impactnet.service.errors import ServiceError
 from impactnet.service.limits.body import LEASE
 from impactnet.service.limits.lanes import Work
 

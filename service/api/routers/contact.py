@@ -39,7 +39,7 @@ INLINE_PARSE_MAX_BYTES = 4096
 
 def parse_body(raw: bytes, content_type: str | None) -> ContactRequest:
     """The request, parsed and validated in one pass
-    (:func:`impactnet.service.api.errors.validated_json`);
+    (:func:`impactnet.service.codecs.json_keys.validated_json`);
     a key given twice in one object is refused (:mod:`impactnet.service.codecs.json_keys`)."""
     return validated_unique(ContactRequest, raw, content_type)
 

@@ -18,7 +18,7 @@ from fastapi import APIRouter, Request
 from fastapi.openapi.docs import get_redoc_html, get_swagger_ui_html
 from starlette.responses import FileResponse, HTMLResponse
 
-from impactnet.service.api.errors import ServiceError
+from impactnet.service.errors import ServiceError
 
 router = APIRouter(tags=["docs"])
 

@@ -16,7 +16,7 @@ import time
 import orjson
 import pytest
 
-from impactnet.service.api.errors import MAX_DETAIL_ITEMS
+from impactnet.service.errors import MAX_DETAIL_ITEMS
 from tests.service.conftest import PAIR, assert_error
 from tests.service.hostile.conftest import HEALTHZ_P99_MS, HealthSampler, post, read_reply
 
