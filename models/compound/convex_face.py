@@ -1,6 +1,6 @@
-"""The face contact of two convex polyhedra: centre of pressure, depth, incident feature and
-manifold, for m poses at once, in the reference body's frame (DESIGN.md's rule, as in
-:mod:`impactnet.models.box.pressure`).
+"""The face contact of two convex polyhedra, compiled: centre of pressure, depth, incident
+feature and manifold of one row (:func:`face_region`), in the reference body's frame
+(DESIGN.md's rule, as in :mod:`impactnet.models.box.pressure`).
 
 The reference face (outward normal ``n``, plane ``n . x = h``) belongs to the reference hull;
 the other hull is incident, its vertices given in the reference hull's frame. Depth below the
@@ -8,10 +8,17 @@ reference plane is ``d = h - n . x``, the pressure ``p = d + tau`` with the box 
 ``tau`` (:data:`impactnet.models.box.pressure.PRESSURE_FLOOR_REL` of the pair's scale).
 
 * Region: every fan triangle of every incident face that looks towards the reference face
-  (``m . n < 0``), in the reference plane's coordinates (u, w), clipped to ``p >= 0`` and to
-  the reference face's side planes (:mod:`impactnet.models.compound.polygon_clip`); all
-  (pose, triangle) items that reach ``p >= 0`` at once.
-* Point: the pressure-weighted mean of the mid-surface points ``y - n d / 2``; a pose whose
+  (``m . n < 0``) and reaches ``p >= 0``, in the reference plane's coordinates (u, w, p),
+  clipped to ``p >= 0`` and to the reference face's side planes (Sutherland-Hodgman, one side
+  after the other); the integrals of the pressure over each clipped triangle summed triangle
+  by triangle (closed forms for a linear pressure over a triangle of area S with vertices a,
+  b, c, fanned from the polygon's first vertex)::
+
+      int p    = S (pa + pb + pc) / 3
+      int x p  = S / 12 [a (2pa + pb + pc) + b (pa + 2pb + pc) + c (pa + pb + 2pc)]
+      int p^2  = S / 6 (pa^2 + pb^2 + pc^2 + pa pb + pb pc + pc pa)
+
+* Point: the pressure-weighted mean of the mid-surface points ``y - n d / 2``; a row whose
   region is empty takes the incident hull's deepest vertex, moved half its depth back.
 * Depth: the separating-axis overlap, or the region's deepest point where that is shallower
   by more than :data:`impactnet.models.box.pressure.REGION_DEPTH_TOL_REL` (the incident hull
@@ -22,210 +29,315 @@ reference plane is ``d = h - n . x``, the pressure ``p = d + tau`` with the box 
 * Manifold: that incident face clipped like the region, at most
   :data:`impactnet.models.contacts.MAX_MANIFOLD_POINTS` of its vertices (evenly spread along
   the polygon where it has more), on the mid-surface.
+
+Each clip, integral and sum is the NumPy solver's expression in its order (the vectorised
+clip of :mod:`impactnet.models.compound.polygon_clip`, one polygon at a time), so the answers
+keep their bits.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from typing import NamedTuple
 
 import numpy as np
 
-from impactnet.models.box.tolerances import SNAP_TOL_REL
-from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL, REGION_DEPTH_TOL_REL
-from impactnet.models.compound import polygon_clip as pc
-from impactnet.models.compound.convex_sat import dot, rotate
-from impactnet.models.compound.hull_stack import HullStack
+from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL, REGION_DEPTH_TOL_REL, SNAP_TOL_REL
+from impactnet.models.compiled import jit
+from impactnet.models.compound.convex_sat import maximum
 from impactnet.models.contacts import MAX_MANIFOLD_POINTS
 
-#: Incident hulls with more fan triangles than this have those beside the reference face
-#: dropped before clipping (:func:`_beside_face_dropped`). Measured in one run on the bench's
-#: twistlock poses: 21 % less time at 128 sides, 36 % at 256; with the few triangles of a box,
-#: a ring piece or an 8-sided head (12-28) the test costs more (5-10 %) than it saves.
-CULL_MIN_TRIANGLES = 64
-#: Reference faces with more sides than this are clipped apart from the others
-#: (:func:`_clip_to_face`): a box face has 4 sides, a ring piece's a few, a twistlock head's
-#: sides 4 and its base and top 8-256.
-FEW_SIDES = 8
+#: A side plane (unit normal in the face's plane) whose value at the polygon's bounding
+#: circle's centre exceeds the circle's radius by more than this (x the magnitudes the values
+#: are computed from, metres) has every vertex strictly inside: 4500 ulps, far above their
+#: rounding.
+CIRCLE_TOL_REL = 1e-12
 
 
-@dataclass
-class FaceRegion:
-    """Face contacts of m poses, reference body's frame."""
+class FaceWork(NamedTuple):
+    """Scratch of one thread's face contacts (sized by the largest hulls of the two tables)."""
 
-    point: np.ndarray  # (m, 3) centre of pressure on the mid-surface (m)
-    depth: np.ndarray  # (m,) penetration (m)
-    pressure: np.ndarray  # (m,) int (d + tau) dA (m^3)
-    feature: np.ndarray  # (m,) the incident hull's feature id
-    rank: np.ndarray  # (m,) 1 vertex, 2 edge, 3 face
-    manifold: np.ndarray  # (m, 8, 3) mid-surface points, zero padded
-    manifold_depth: np.ndarray  # (m, 8)
-    manifold_count: np.ndarray  # (m,)
+    x_inc: np.ndarray  # (V, 3) A's vertices in B's frame (B's face is the reference)
+    normals_inc: np.ndarray  # (F, 3) A's face normals in B's frame
+    uwp: np.ndarray  # (V, 3) the incident vertices' (u, w, p)
+    polygons: np.ndarray  # (2, P, 3) a polygon and its clip, P = 2 L + 8 (L sides cut by L)
+    value: np.ndarray  # (P,) the clip's plane values
+    manifold: np.ndarray  # (8, 3) the manifold, reference frame
+    manifold_depth: np.ndarray  # (8,)
 
 
-def _plane_frames(ref: HullStack, rid: np.ndarray, face: np.ndarray):
-    """Per pose: normal n (m, 3), offset h (m,), origin o (m, 3), in-plane axes e_u, e_w."""
-    frames = ref.face_frames[rid, face]
-    return (ref.face_normals[rid, face], ref.face_offsets[rid, face], frames[:, 0],
-            frames[:, 1], frames[:, 2])
+@jit
+def face_work(vertices, faces, loop):
+    """A :class:`FaceWork` for hulls of at most these counts (``loop``: sides of a face)."""
+    size = 2 * loop + 8
+    return FaceWork(np.empty((vertices, 3)), np.empty((faces, 3)), np.empty((vertices, 3)),
+                    np.empty((2, size, 3)), np.empty(size), np.zeros((MAX_MANIFOLD_POINTS, 3)),
+                    np.zeros(MAX_MANIFOLD_POINTS))
 
 
-def _clip_to_face(ref: HullStack, rid, face, polygons, counts, item_row):
-    """Polygons of items (k) clipped to ``p >= 0`` and their rows' reference faces' sides
-    (:attr:`Hull.side_planes`, precomputed in each face's frame). Items whose face has more than
-    :data:`FEW_SIDES` sides are clipped apart, so that a many-sided face (a twistlock head's
-    base) does not make every other item of the batch pass its extra sides."""
-    polygons, counts = pc.clip(polygons, counts, np.array([0.0, 0.0, 1.0, 0.0]), True)
-    planes = ref.side_planes[rid[item_row], face[item_row]]  # (k, M, 4)
-    sides = ref.face_counts[rid[item_row], face[item_row]]
-    many = sides > FEW_SIDES
-    if not many.any() or many.all():
-        return _clip_sides(polygons, counts, planes, int(sides.max(initial=0)))
-    parts = [(np.flatnonzero(group), *_clip_sides(polygons[group], counts[group],
-                                                  planes[group], int(sides[group].max())))
-             for group in (~many, many)]
-    out = np.zeros((len(counts), max(p.shape[1] for _, p, _ in parts), 3))
-    counts = counts.copy()
-    for items, clipped, clipped_counts in parts:
-        out[items, :clipped.shape[1]] = clipped
-        counts[items] = clipped_counts
-    return out, counts
+# --- Stages (plain arrays: a table's arrays are read out of it once per call of the rows) -------
 
 
-def _clip_sides(polygons, counts, planes, sides: int):
-    """``polygons`` clipped by the first ``sides`` side planes of ``planes`` (k, M, 4)."""
-    for side in range(sides):
-        if len(counts) == 0:
-            break
-        polygons, counts = pc.clip(polygons, counts, planes[:, side])
-    return polygons, counts
+@jit
+def _plane_coordinates(normals, offsets, frames, f, x_inc, nv, tau, uwp):
+    """``uwp``: each incident vertex's (u, w) in face f's frame and its pressure; the deepest
+    vertex (the first of equal pressures) and its pressure."""
+    n0, n1, n2 = normals[f, 0], normals[f, 1], normals[f, 2]
+    h = offsets[f]
+    o0, o1, o2 = frames[f, 0, 0], frames[f, 0, 1], frames[f, 0, 2]
+    u0, u1, u2 = frames[f, 1, 0], frames[f, 1, 1], frames[f, 1, 2]
+    w0, w1, w2 = frames[f, 2, 0], frames[f, 2, 1], frames[f, 2, 2]
+    top, top_p = 0, -np.inf
+    for k in range(nv):
+        x0, x1, x2 = x_inc[k, 0], x_inc[k, 1], x_inc[k, 2]
+        r0, r1, r2 = x0 - o0, x1 - o1, x2 - o2
+        uwp[k, 0] = r0 * u0 + r1 * u1 + r2 * u2
+        uwp[k, 1] = r0 * w0 + r1 * w1 + r2 * w2
+        p = (h - (x0 * n0 + x1 * n1 + x2 * n2)) + tau
+        uwp[k, 2] = p
+        if p > top_p:
+            top, top_p = k, p
+    return top, top_p
 
 
-def _beside_face_dropped(ref: HullStack, rid, face, row, polygons):
-    """(row, polygons) without the triangles that lie wholly outside one side of their row's
-    reference face: clipping would leave nothing of them (a many-sided twistlock head's base
-    beside a ring piece's face), so the answer is the same, for less work."""
-    planes = ref.side_planes[rid[row], face[row]]  # (k, M, 4)
-    value = (polygons[:, :, pc.U, None] * planes[:, None, :, 0]
-             + polygons[:, :, pc.W, None] * planes[:, None, :, 1] + planes[:, None, :, 3])
-    keep = ~(value < 0.0).all(axis=1).any(axis=1)
-    return row[keep], polygons[keep]
+@jit
+def _incident_feature(n, vertex_start, face_start, edge_start, loop_start, loop_vertex,
+                      vertex_face_start, vertex_face, adjacency_start, adjacency_vertex,
+                      adjacency_edge, hi, normals_inc, top, tau, scale, uwp):
+    """(feature id, rank, incident face) (module docstring); ``top`` the deepest vertex, ``n``
+    the reference normal (3), the incident hull ``hi`` of the arrays' table."""
+    vi0, fi0 = vertex_start[hi], face_start[hi]
+    facing, face = np.inf, -1
+    for s in range(vertex_face_start[vi0 + top], vertex_face_start[vi0 + top + 1]):
+        g = vertex_face[s]
+        value = normals_inc[g, 0] * n[0] + normals_inc[g, 1] * n[1] + normals_inc[g, 2] * n[2]
+        if value < facing:
+            facing, face = value, g
+    touching, first, second, first_depth, second_depth = 0, -1, -1, -np.inf, -np.inf
+    for s in range(loop_start[fi0 + face], loop_start[fi0 + face + 1]):
+        depth = uwp[loop_vertex[s], 2] - tau  # the two deepest, the first in loop order on ties
+        if depth >= -(SNAP_TOL_REL * scale):
+            touching += 1
+        if depth > first_depth:
+            second, second_depth = first, first_depth
+            first, first_depth = s, depth
+        elif depth > second_depth:
+            second, second_depth = s, depth
+    first, second = loop_vertex[first], loop_vertex[second]
+    edge = -1
+    for s in range(adjacency_start[vi0 + first], adjacency_start[vi0 + first + 1]):
+        if adjacency_vertex[s] == second:
+            edge = adjacency_edge[s]
+    faces = face_start[hi + 1] - fi0
+    if touching >= 3:
+        return face, 3, face
+    if touching == 2 and edge >= 0:
+        return faces + edge, 2, face
+    return faces + (edge_start[hi + 1] - edge_start[hi]) + first, 1, face
 
 
-def _region(ref: HullStack, rid, face, frames, inc: HullStack, iid, rot_inc, uwp):
-    """Moments (4, m) and the deepest pressure (m,) of the regions."""
-    m = len(face)
-    n = frames[0]
-    front = dot(rotate(rot_inc, inc.face_normals[iid]), n[:, None]) < 0.0  # (m, F_inc)
-    triangles = inc.triangles[iid]  # (m, T, 3)
-    tri_p = np.take_along_axis(uwp[:, :, pc.P], triangles.reshape(m, -1), axis=1).reshape(
-        triangles.shape)
-    reach = (np.take_along_axis(front, inc.triangle_face[iid], axis=1)
-             & (tri_p.max(axis=2) >= 0.0) & inc.triangle_valid[iid])
-    row, tri = np.nonzero(reach)
-    polygons = uwp[row[:, None], triangles[row, tri]]  # (k, 3, 3)
-    if triangles.shape[1] > CULL_MIN_TRIANGLES:
-        row, polygons = _beside_face_dropped(ref, rid, face, row, polygons)
-    polygons, counts = _clip_to_face(ref, rid, face, polygons, np.full(len(row), 3), row)
-    per_item = pc.moments(polygons, counts)
-    totals = np.stack([np.bincount(row, per_item[i], minlength=m) for i in range(4)])
-    slot = np.arange(polygons.shape[1])[None, :] < counts[:, None]
-    reached = np.where(slot, polygons[:, :, pc.P], -np.inf).max(axis=1, initial=-np.inf)
-    deepest = np.full(m, -np.inf)
-    np.maximum.at(deepest, row, reached)
-    return totals, deepest, front
+@jit
+def _bounding_circle(polygons, src, size):
+    """(u, w, radius) of a circle around the polygon ``polygons[src, :size]``: its vertices'
+    mean and their largest distance from it (m)."""
+    cu = cw = 0.0
+    for i in range(size):
+        cu += polygons[src, i, 0]
+        cw += polygons[src, i, 1]
+    cu, cw = cu / size, cw / size
+    radius = 0.0
+    for i in range(size):
+        du, dw = polygons[src, i, 0] - cu, polygons[src, i, 1] - cw
+        radius = max(radius, du * du + dw * dw)
+    return cu, cw, math.sqrt(radius)
 
 
-def _incident_feature(inc: HullStack, iid, rot_inc, n, uwp, tau, scale):
-    """(feature id, rank, incident face) per pose (module docstring)."""
-    m = len(n)
-    pressure = uwp[:, :, pc.P]
-    deepest = np.argmax(pressure, axis=1)
-    facing = dot(rotate(rot_inc, inc.face_normals[iid]), n[:, None])  # (m, F_inc)
-    facing = np.where(inc.vertex_faces[iid, deepest], facing, np.inf)
-    face = np.argmin(facing, axis=1)
-    loops, counts = inc.face_loops[iid, face], inc.face_counts[iid, face]
-    slot = np.arange(loops.shape[1])[None, :] < counts[:, None]
-    depth = np.where(slot, np.take_along_axis(pressure, loops, axis=1) - tau[:, None], -np.inf)
-    touching = (depth >= -(SNAP_TOL_REL * scale)[:, None]).sum(axis=1)
-    order = np.argsort(-depth, axis=1, kind="stable")
-    first = loops[np.arange(m), order[:, 0]]
-    second = loops[np.arange(m), order[:, min(1, loops.shape[1] - 1)]]
-    edge = inc.edge_of_vertices[iid, first, second]
-    faces, edges = inc.n_faces[iid], inc.n_edges[iid]  # feature ids: faces, edges, vertices
-    feature = np.where(touching >= 3, face,
-                       np.where((touching == 2) & (edge >= 0), faces + edge,
-                                faces + edges + first))
-    rank = np.where(touching >= 3, 3, np.where((touching == 2) & (edge >= 0), 2, 1))
-    return feature, rank, face
+@jit
+def _clipped_items(n, frames, planes, f, s0, s1, loop_start, loop_vertex, fi0, nfi,
+                   normals_inc, inc_face, tau, work):
+    """The region and the manifold (module docstring): the incident face ``inc_face``'s loop,
+    then every fan triangle of every incident face that looks towards the reference face (the
+    incident hull's faces from ``fi0``, ``nfi`` of them) and reaches ``p >= 0``, each clipped
+    to ``p >= 0`` and to face f's sides ``planes[s0:s1]`` one after the other
+    (Sutherland-Hodgman: each vertex emits itself where inside and the crossing of its outgoing
+    edge where that edge crosses the plane, ``p = 0`` exactly on the pressure plane). The
+    triangles' moments summed in their order and their deepest pressure; the manifold's points
+    in ``work.manifold`` (mid-surface, reference frame) and depths. Returns
+    (int p, int u p, int w p, int p^2, deepest pressure, manifold count)."""
+    uwp, polygons, value = work.uwp, work.polygons, work.value
+    manifold, manifold_depth = work.manifold, work.manifold_depth
+    room = polygons.shape[1] - 1  # a convex polygon gains a vertex per cut; rounding no more
+    t0 = t1 = t2 = t3 = 0.0
+    deepest = -np.inf
+    count = 0
+    for g in range(-1, nfi):  # -1: the manifold's face
+        if g < 0:
+            l0, l1 = loop_start[fi0 + inc_face], loop_start[fi0 + inc_face + 1]
+            items = 1
+        elif normals_inc[g, 0] * n[0] + normals_inc[g, 1] * n[1] + normals_inc[g, 2] * n[2] < 0.0:
+            l0, l1 = loop_start[fi0 + g], loop_start[fi0 + g + 1]
+            items = l1 - l0 - 2  # its fan triangles
+        else:
+            continue  # looks away from the reference face
+        for item in range(items):
+            if g < 0:
+                size = l1 - l0
+                for k in range(size):
+                    for c in range(3):
+                        polygons[0, k, c] = uwp[loop_vertex[l0 + k], c]
+            else:
+                va, vb, vc = loop_vertex[l0], loop_vertex[l0 + item + 1], loop_vertex[l0 + item + 2]
+                if not max(uwp[va, 2], uwp[vb, 2], uwp[vc, 2]) >= 0.0:
+                    continue
+                size = 3
+                for c in range(3):
+                    polygons[0, 0, c], polygons[0, 1, c] = uwp[va, c], uwp[vb, c]
+                    polygons[0, 2, c] = uwp[vc, c]
+            # clip: p >= 0 (k = s0 - 1), then the sides; a side whose line passes beyond the
+            # polygon's bounding circle (centre cu, cw, radius, with a margin far above the
+            # rounding of its values) leaves every vertex inside, as does a plane no vertex is
+            # outside of: the polygon stays as it is (a many-sided face's sides, mostly)
+            src = 0
+            cu = cw = radius = 0.0
+            circle = False
+            for k in range(s0 - 1, s1):
+                if size == 0:
+                    break
+                c0, c1, c2, c3 = 0.0, 0.0, 1.0, 0.0
+                if k >= s0:
+                    c0, c1, c2, c3 = planes[k, 0], planes[k, 1], planes[k, 2], planes[k, 3]
+                    if not circle:
+                        cu, cw, radius = _bounding_circle(polygons, src, size)
+                        circle = True
+                    reach = c0 * cu + c1 * cw + c3 - radius
+                    if reach > CIRCLE_TOL_REL * (abs(cu) + abs(cw) + abs(c3) + radius):
+                        continue
+                outside = False
+                for i in range(size):
+                    value[i] = ((c0 * polygons[src, i, 0] + c1 * polygons[src, i, 1])
+                                + c2 * polygons[src, i, 2]) + c3
+                    outside = outside or value[i] < 0.0
+                if not outside:
+                    continue  # every vertex emits itself: the polygon as it is
+                dst, kept = 1 - src, 0
+                for i in range(size):
+                    j = i + 1 if i + 1 < size else 0
+                    inside = value[i] >= 0.0
+                    if inside and kept < room:
+                        for c in range(3):
+                            polygons[dst, kept, c] = polygons[src, i, c]
+                        kept += 1
+                    if inside != (value[j] >= 0.0) and kept < room:
+                        fraction = value[i] / (value[i] - value[j])
+                        for c in range(3):
+                            polygons[dst, kept, c] = polygons[src, i, c] + fraction * (
+                                polygons[src, j, c] - polygons[src, i, c])
+                        if k < s0:
+                            polygons[dst, kept, 2] = 0.0
+                        kept += 1
+                src, size, circle = dst, kept, False
+            if g < 0:  # the manifold: at most 8 vertices, evenly spread, on the mid-surface
+                count = min(size, MAX_MANIFOLD_POINTS)
+                manifold[:] = 0.0
+                manifold_depth[:] = 0.0
+                for j in range(count):
+                    pick = j * size // MAX_MANIFOLD_POINTS if size > MAX_MANIFOLD_POINTS else j
+                    u, w = polygons[src, pick, 0], polygons[src, pick, 1]
+                    depth = maximum(polygons[src, pick, 2] - tau, 0.0)
+                    manifold_depth[j] = depth
+                    for c in range(3):
+                        manifold[j, c] = (((frames[f, 0, c] + u * frames[f, 1, c])
+                                           + w * frames[f, 2, c]) - 0.5 * depth * n[c])
+                continue
+            # the triangle's moments (module docstring), fanned from its first vertex
+            m0 = m1 = m2 = m3 = 0.0
+            au, aw, pa = polygons[src, 0, 0], polygons[src, 0, 1], polygons[src, 0, 2]
+            for i in range(1, size - 1):
+                bu, bw, pb = polygons[src, i, 0], polygons[src, i, 1], polygons[src, i, 2]
+                cu, cw, pc = (polygons[src, i + 1, 0], polygons[src, i + 1, 1],
+                              polygons[src, i + 1, 2])
+                area = 0.5 * abs((bu - au) * (cw - aw) - (bw - aw) * (cu - au))
+                m0 += area * (pa + pb + pc) / 3.0
+                m1 += area / 12.0 * (au * (2 * pa + pb + pc) + bu * (pa + 2 * pb + pc)
+                                     + cu * (pa + pb + 2 * pc))
+                m2 += area / 12.0 * (aw * (2 * pa + pb + pc) + bw * (pa + 2 * pb + pc)
+                                     + cw * (pa + pb + 2 * pc))
+                m3 += area / 6.0 * (pa * pa + pb * pb + pc * pc + pa * pb + pb * pc + pc * pa)
+            t0 += m0
+            t1 += m1
+            t2 += m2
+            t3 += m3
+            for i in range(size):
+                deepest = max(deepest, polygons[src, i, 2])
+    return t0, t1, t2, t3, deepest, count
 
 
-def _manifold(ref: HullStack, rid, face, frames, inc: HullStack, iid, inc_face, uwp, tau):
-    """Mid-surface points (m, 8, 3), depths (m, 8) and counts (m,) of the clipped incident
-    face."""
-    m = len(face)
-    n, _, origin, e_u, e_w = frames
-    loops, counts = inc.face_loops[iid, inc_face], inc.face_counts[iid, inc_face]
-    loops = loops[:, :max(int(counts.max(initial=0)), 1)]  # the loops' padding, trimmed
-    polygons = np.take_along_axis(uwp, loops[:, :, None], axis=1)
-    polygons, counts = _clip_to_face(ref, rid, face, polygons, counts, np.arange(m))
-    width = polygons.shape[1]
-    pick = (np.arange(MAX_MANIFOLD_POINTS)[None, :] * np.maximum(counts, 1)[:, None]
-            // MAX_MANIFOLD_POINTS)
-    pick = np.where(counts[:, None] > MAX_MANIFOLD_POINTS, pick,
-                    np.minimum(np.arange(MAX_MANIFOLD_POINTS)[None, :], width - 1))
-    chosen = np.take_along_axis(polygons, pick[:, :, None], axis=1)
-    count = np.minimum(counts, MAX_MANIFOLD_POINTS)
-    valid = np.arange(MAX_MANIFOLD_POINTS)[None, :] < count[:, None]
-    depth = np.where(valid, np.maximum(chosen[:, :, pc.P] - tau[:, None], 0.0), 0.0)
-    points = (origin[:, None] + chosen[:, :, pc.U, None] * e_u[:, None]
-              + chosen[:, :, pc.W, None] * e_w[:, None] - 0.5 * depth[:, :, None] * n[:, None])
-    return np.where(valid[:, :, None], points, 0.0), depth, count
-
-
-def face_region(ref: HullStack, rid: np.ndarray, face: np.ndarray, inc: HullStack,
-                iid: np.ndarray, x_inc: np.ndarray, rot_inc: np.ndarray, sat_depth: np.ndarray,
-                scale: np.ndarray) -> FaceRegion:
-    """The face contacts of m poses (module docstring), in the reference hull's frame.
+@jit
+def face_region(normals, offsets, frames, face_start, ref_loops, planes, hr, face,
+                vertex_start, inc_faces, edge_start, loop_start, loop_vertex, vertex_face_start,
+                vertex_face, adjacency_start, adjacency_vertex, adjacency_edge, hi, x_inc,
+                normals_inc, sat_depth, scale, work):
+    """The face contact of one row (module docstring), in the reference hull's frame.
 
     Parameters
     ----------
-    ref : HullStack
-        The hulls of the reference faces; ``rid`` (m,) each row's.
-    face : ndarray of int, shape (m,)
-        The reference face of each pose.
-    inc : HullStack
-        The incident hulls; ``iid`` (m,) each row's.
-    x_inc : ndarray, shape (m, V_inc, 3)
+    normals, offsets, frames, face_start, ref_loops, planes
+        The reference hull's table (:class:`~impactnet.models.compound.hull_stack.HullArrays`:
+        face_normals, face_offsets, face_frames, face_start, loop_start, side_planes); ``hr``
+        the hull, ``face`` its face (the hull's own index).
+    vertex_start, ..., adjacency_edge
+        The incident hull's table (vertex_start, face_start, edge_start, loop_start,
+        loop_vertex, vertex_face_start, vertex_face, adjacency_start, adjacency_vertex,
+        adjacency_edge); ``hi`` the hull. (Plain arrays: a table's arrays read out of its tuple
+        cost a reference count each, which the kernel threads would contend for; the rows'
+        kernels read them once.)
+    x_inc : ndarray, shape (>= V_inc, 3)
         The incident hull's vertices in the reference frame (metres).
-    rot_inc : ndarray, shape (m, 3, 3)
-        The rotation from the incident hull's frame to the reference frame.
-    sat_depth : ndarray, shape (m,)
-        The separating-axis overlap along the reference normal (metres).
-    scale : ndarray, shape (m,)
-        The pair's scale (metres).
+    normals_inc : ndarray, shape (>= F_inc, 3)
+        The incident hull's face normals in the reference frame.
+    sat_depth, scale : float
+        The separating-axis overlap along the reference normal and the pair's scale (metres).
+    work : FaceWork
+
+    Returns
+    -------
+    (point (3), depth, pressure, feature, rank, manifold count), the manifold in
+    ``work.manifold`` and ``work.manifold_depth``.
     """
     tau = PRESSURE_FLOOR_REL * scale
-    frames = _plane_frames(ref, rid, face)
-    n, h, origin, e_u, e_w = frames
-    rel = x_inc - origin[:, None]
-    uwp = np.stack([dot(rel, e_u[:, None]), dot(rel, e_w[:, None]),
-                    h[:, None] - dot(x_inc, n[:, None]) + tau[:, None]], axis=2)
-    totals, deepest, _ = _region(ref, rid, face, frames, inc, iid, rot_inc, uwp)
-    found = totals[0] > 0.0
-    safe = np.where(found, totals[0], 1.0)
-    offset = np.maximum(0.5 * (totals[3] / safe) - 0.5 * tau, 0.0)
-    point = (origin + (totals[1] / safe)[:, None] * e_u + (totals[2] / safe)[:, None] * e_w
-             - offset[:, None] * n)
-    top = np.argmax(uwp[:, :, pc.P], axis=1)
-    top_depth = np.maximum(uwp[np.arange(len(face)), top, pc.P] - tau, 0.0)
-    fallback = x_inc[np.arange(len(face)), top] + 0.5 * top_depth[:, None] * n
-    region_depth = np.maximum(deepest - tau, 0.0)
-    shallower = found & (region_depth < sat_depth - REGION_DEPTH_TOL_REL * scale)
-    feature, rank, inc_face = _incident_feature(inc, iid, rot_inc, n, uwp, tau, scale)
-    manifold, manifold_depth, count = _manifold(ref, rid, face, frames, inc, iid, inc_face, uwp,
-                                                tau)
-    point = np.where(found[:, None], point, fallback)
-    depth = np.where(shallower, region_depth, sat_depth)
-    empty = count == 0  # nothing of the incident face reaches: the point alone
-    manifold[empty, 0], manifold_depth[empty, 0] = point[empty], depth[empty]
-    return FaceRegion(point, depth, np.where(found, totals[0], 0.0), feature, rank, manifold,
-                      manifold_depth, np.maximum(count, 1))
+    f = face_start[hr] + face
+    nv = vertex_start[hi + 1] - vertex_start[hi]
+    uwp = work.uwp
+    top, top_p = _plane_coordinates(normals, offsets, frames, f, x_inc, nv, tau, uwp)
+    n = (normals[f, 0], normals[f, 1], normals[f, 2])
+    feature, rank, inc_face = _incident_feature(
+        n, vertex_start, inc_faces, edge_start, loop_start, loop_vertex, vertex_face_start,
+        vertex_face, adjacency_start, adjacency_vertex, adjacency_edge, hi, normals_inc, top,
+        tau, scale, uwp)
+    fi0 = inc_faces[hi]
+    t0, t1, t2, t3, deepest, count = _clipped_items(
+        n, frames, planes, f, ref_loops[f], ref_loops[f + 1], loop_start, loop_vertex, fi0,
+        inc_faces[hi + 1] - fi0, normals_inc, inc_face, tau, work)
+    found = t0 > 0.0
+    if found:
+        offset = maximum(0.5 * (t3 / t0) - 0.5 * tau, 0.0)
+        point = (((frames[f, 0, 0] + (t1 / t0) * frames[f, 1, 0]) + (t2 / t0) * frames[f, 2, 0])
+                 - offset * n[0],
+                 ((frames[f, 0, 1] + (t1 / t0) * frames[f, 1, 1]) + (t2 / t0) * frames[f, 2, 1])
+                 - offset * n[1],
+                 ((frames[f, 0, 2] + (t1 / t0) * frames[f, 1, 2]) + (t2 / t0) * frames[f, 2, 2])
+                 - offset * n[2])
+    else:  # the deepest incident vertex, moved half its depth back
+        top_depth = maximum(top_p - tau, 0.0)
+        point = (x_inc[top, 0] + 0.5 * top_depth * n[0], x_inc[top, 1] + 0.5 * top_depth * n[1],
+                 x_inc[top, 2] + 0.5 * top_depth * n[2])
+    region_depth = maximum(deepest - tau, 0.0)
+    depth = sat_depth
+    if found and region_depth < sat_depth - REGION_DEPTH_TOL_REL * scale:
+        depth = region_depth
+    if count == 0:  # nothing of the incident face reaches: the point alone
+        manifold = work.manifold
+        for c in range(3):
+            manifold[0, c] = point[c]
+        work.manifold_depth[0] = depth
+        count = 1
+    return point, depth, t0 if found else 0.0, feature, rank, count

@@ -12,6 +12,7 @@ from impactnet.models.compound.convex_sat import choose_axis
 from impactnet.models.compound.hull import box_hull, convex_hull
 from impactnet.models.geometry.rotations import quaternion_to_matrix, random_quaternions
 from impactnet.models.metrics import angle_deg
+from tests.models.compound import convex_cases
 
 #: Agreement with the box solver (m, degrees): both evaluate the same geometry; only the
 #: order of floating-point operations differs.
@@ -221,32 +222,18 @@ def test_a_head_resting_level_on_a_plate_presses_at_its_tip_centroid():
     assert 0.015 - push / 2 < got.point[0, 2] < 0.015 - push / 2 + 1e-3 * push
 
 
-def test_dropping_triangles_beside_the_reference_face_changes_no_bit(monkeypatch):
-    """A 128-sided head against a small ring-like plate: the triangles that lie wholly outside a
-    side of the reference face are dropped before clipping; every answer keeps its bits."""
-    from impactnet.models.compound import convex_face
-
-    head, plate = _head(128), box_hull((0.04, 0.03, 0.026))
-    rng = np.random.default_rng(128)
-    n = 400
-    qa, qb = random_quaternions(n, rng), random_quaternions(n, rng)
-    pa = np.zeros((n, 3))
-    pb = rng.uniform(-0.06, 0.06, (n, 3)) - np.einsum("nij,j->ni", _rotations(qb),
-                                                       head.vertices.mean(axis=0))
-    dropped = []
-    real = convex_face._beside_face_dropped
-
-    def counting(*args):
-        row, polygons = real(*args)
-        dropped.append(len(args[3]) - len(row))
-        return row, polygons
-
-    monkeypatch.setattr(convex_face, "_beside_face_dropped", counting)
-    answers = []
-    for threshold in (0, 10**9):  # every hull culled, none
-        monkeypatch.setattr(convex_face, "CULL_MIN_TRIANGLES", threshold)
-        answers.append(convex_contacts(plate, head, pa, _rotations(qa), pb,
-                                       _rotations(qb)).arrays())
-    assert 0.2 * n < answers[0]["colliding"].sum() < n and sum(dropped) > n  # it did drop
-    for name, column in answers[0].items():
-        np.testing.assert_array_equal(column, answers[1][name], err_msg=name)
+def test_a_head_beside_a_small_piece_keeps_the_numpy_solvers_bits():
+    """A 128-sided head against a small ring-like piece: many of the head's triangles lie
+    wholly outside a side of the piece's face. The NumPy solver dropped them before clipping
+    (a shortcut that changed no bit); the kernel clips every triangle and gives the NumPy
+    solver's recorded answers bit for bit."""
+    recorded = np.load(convex_cases.DATA)
+    name = "head128_beside_piece"
+    spec_a, spec_b = recorded[f"{name}/hulls"]
+    poses = tuple(recorded[f"{name}/{key}"] for key in ("position_a", "rot_a", "position_b",
+                                                        "rot_b"))
+    got = convex_cases.solve(name, spec_a, spec_b, poses, convex_contacts, choose_axis)
+    n = len(poses[0])
+    assert 0.2 * n < got[f"{name}/colliding"].sum() < n
+    for key, value in got.items():
+        np.testing.assert_array_equal(value, recorded[key], err_msg=key)

@@ -1,5 +1,5 @@
-"""Hull stacks: rows of different part pairs in one convex call answer exactly as each pair's
-own call (the padding never changes a bit), and a body's hulls split into size classes."""
+"""Hull tables: rows of different part pairs in one convex call answer exactly as each pair's
+own call, and a table holds each hull's own entries (nothing padded)."""
 import numpy as np
 
 from impactnet.models.compound import crane_bodies as cb
@@ -52,32 +52,49 @@ def test_rows_of_mixed_part_pairs_answer_bit_for_bit_as_each_pair_alone():
                 np.testing.assert_array_equal(got[name][rows], column, err_msg=name)
 
 
-def test_padding_keeps_each_hulls_own_counts_and_marks_the_padded_entries():
+def test_a_table_holds_each_hulls_own_entries_and_nothing_padded():
     hulls = _hulls()
-    stack = stack_hulls(hulls)
-    assert stack is stack_hulls(list(hulls))  # cached by the hulls' identities
-    width = stack.width
-    assert width["V"] == max(len(h.vertices) for h in hulls)
+    table = stack_hulls(hulls)
+    assert table is stack_hulls(list(hulls))  # cached by the hulls' identities
+    a = table.arrays
+    assert len(a.vertices) == sum(len(h.vertices) for h in hulls)  # no padding at all
+    assert len(a.edges) == sum(h.n_edges for h in hulls)
     for k, hull in enumerate(hulls):
-        assert stack.n_faces[k] == hull.n_faces and stack.n_edges[k] == hull.n_edges
-        assert stack.edge_valid[k].sum() == hull.n_edges
-        assert stack.triangle_valid[k].sum() == len(hull.triangles)
-        assert not stack.vertex_faces[k, :, hull.n_faces:].any()
-        np.testing.assert_array_equal(stack.vertices[k, len(hull.vertices):],
-                                      np.repeat(hull.vertices[:1], width["V"] -
-                                                len(hull.vertices), axis=0))
-        np.testing.assert_array_equal(stack.centre[k], hull.vertices.mean(axis=0))
+        v, f, e = (slice(start[k], start[k + 1])
+                   for start in (a.vertex_start, a.face_start, a.edge_start))
+        np.testing.assert_array_equal(a.vertices[v], hull.vertices)
+        np.testing.assert_array_equal(a.face_normals[f], hull.face_normals)
+        np.testing.assert_array_equal(a.edges[e], hull.edges)
+        np.testing.assert_array_equal(a.edge_faces[e], hull.edge_faces)
+        assert table.n_faces[k] == hull.n_faces and table.n_edges[k] == hull.n_edges
+        for face in range(hull.n_faces):
+            loop = slice(a.loop_start[f.start + face], a.loop_start[f.start + face + 1])
+            count = hull.face_counts[face]
+            np.testing.assert_array_equal(a.loop_vertex[loop], hull.face_loops[face, :count])
+            np.testing.assert_array_equal(a.side_planes[loop], hull.side_planes[face, :count])
+        np.testing.assert_array_equal(a.centre[k], hull.vertices.mean(axis=0))
+        # the Gauss-map tree lists every edge once; the face order reaches every face
+        nodes = slice(a.node_start[k], a.node_start[k + 1])
+        root_first, root_count = a.node_first[nodes][0], a.node_count[nodes][0]
+        assert sorted(a.tree_edge[root_first:root_first + root_count]) == list(range(hull.n_edges))
+        assert sorted(a.face_order[f]) == list(range(hull.n_faces))
+    for array in a:
+        assert not array.flags.writeable
 
 
-def test_a_spreader_splits_into_size_classes_that_keep_small_parts_small():
+def test_a_spreader_shares_one_table_in_which_small_parts_stay_small():
+    """The size classes kept padding cheap; a flat table pads nothing, so one table holds a
+    spreader's frame, shafts and 128-sided heads, each with its own counts."""
     parts = cb.spreader("40ft", sides=128)
     hulls = tuple(hull_of(p) for p in parts)
     classes = size_classes(hulls)
     assert classes is size_classes(hulls)
+    assert size_classes(hulls, cached=False) is not classes  # a request's body: not cached
+    table = classes.table
+    assert len(classes.stacks) == 1 and (classes.klass == 0).all()
+    edges = np.diff(table.arrays.edge_start)
     frame = [k for k, p in enumerate(parts) if not p.name.startswith("head")]
     heads = [k for k, p in enumerate(parts) if p.name.startswith("head")]
-    assert len(set(classes.klass[frame]) & set(classes.klass[heads])) == 0
-    small = classes.stacks[classes.klass[frame[0]]]
-    assert small.width["E"] < 50 and classes.stacks[classes.klass[heads[0]]].width["E"] >= 384
+    assert (edges[frame] == 12).all() and (edges[heads] == 384).all()
     for k, hull in enumerate(hulls):
         assert classes.stacks[classes.klass[k]].hulls[classes.slot[k]] is hull

@@ -1,0 +1,101 @@
+"""The convex solver's cost (not a test module): ``python -m tests.models.compound.convex_bench``.
+
+One thread (the kernel threads set to 1), medians of repeated runs:
+
+* per pair of hulls, a twistlock head of 8, 32, 128 and 256 sides (a stadium frustum) on a
+  0.3 m plate and on another head, seeded random poses near contact
+  (:func:`tests.models.compound.convex_cases.random_poses`): a batch of 256 pairs in one call
+  (per pair) and one pair per call;
+* the whole :func:`impactnet.models.compound.compound_answer` of a 40 ft spreader on a detail-2
+  40 ft container with 32 and 128 sides, on the golden set's recorded poses
+  (``tests/data/golden/compound_twistlocks_*.npz``): one pose per call, and all in one call
+  (per pose).
+
+Only public entries are timed, so the same module times an older solver where that one is on
+the path instead.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+BATCH, SINGLES, REPEATS = 256, 24, 5
+GOLDEN = Path(__file__).resolve().parents[2] / "data" / "golden"
+
+
+def _median_time(call, repeats: int = REPEATS) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        call()
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+def pair_costs() -> list[dict]:
+    """Seconds per pair of hulls, batch and single, for each head and partner."""
+    from impactnet.models.compound.convex_contact import convex_contacts
+    from impactnet.models.compound.hull import box_hull
+    from tests.models.compound.convex_cases import PLATE, head, random_poses
+
+    rows = []
+    for sides in (8, 32, 128, 256):
+        b = head(sides)
+        for partner, a in (("plate", box_hull(PLATE)), ("head", head(sides))):
+            pa, ra, pb, rb = random_poses(a, b, BATCH, sides)
+            convex_contacts(a, b, pa, ra, pb, rb)  # compiled or loaded
+            batch = _median_time(lambda: convex_contacts(a, b, pa, ra, pb, rb)) / BATCH
+            single = float(np.median([_median_time(lambda k=k: convex_contacts(
+                a, b, pa[k:k + 1], ra[k:k + 1], pb[k:k + 1], rb[k:k + 1]))
+                for k in range(SINGLES)]))
+            rows.append({"sides": sides, "on": partner, "batch_s": batch, "single_s": single})
+    return rows
+
+
+def answer_costs() -> list[dict]:
+    """Seconds per pose of compound_answer, one pose per call and all poses in one call."""
+    from impactnet.models.compound import compound_answer, container, spreader
+
+    rows = []
+    for sides in (32, 128):
+        data = np.load(GOLDEN / f"compound_twistlocks_{sides}.npz")
+        parts_a, parts_b = container("40ft", detail=2), spreader("40ft", sides=sides)
+        pa, qa, pb, qb = (data[k] for k in ("position_a", "quaternion_a", "position_b",
+                                              "quaternion_b"))
+        n = len(pa)
+        compound_answer(parts_a, pa, qa, parts_b, pb, qb)
+        whole = _median_time(lambda: compound_answer(parts_a, pa, qa, parts_b, pb, qb), 3) / n
+        picked = range(0, n, max(1, n // 40))
+        single = float(np.median([_median_time(lambda k=k: compound_answer(
+            parts_a, pa[k], qa[k], parts_b, pb[k], qb[k]), 3) for k in picked]))
+        rows.append({"sides": sides, "poses": n, "batch_s": whole, "single_s": single})
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", help="also write the figures here")
+    args = parser.parse_args()
+    try:
+        from impactnet.models.compiled import set_threads
+        set_threads(1)
+    except ImportError:  # a solver without compiled kernels
+        pass
+    figures = {"pairs": pair_costs(), "answers": answer_costs()}
+    for row in figures["pairs"]:
+        print(f"head {row['sides']:3d} on {row['on']:5s}: {row['batch_s'] * 1e6:10.1f} us/pair "
+              f"in a batch of {BATCH}, {row['single_s'] * 1e6:10.1f} us alone")
+    for row in figures["answers"]:
+        print(f"compound_answer, spreader {row['sides']:3d} sides on a 40 ft container (detail "
+              f"2): {row['batch_s'] * 1e3:8.3f} ms/pose in a batch of {row['poses']}, "
+              f"{row['single_s'] * 1e3:8.3f} ms alone")
+    if args.json:
+        Path(args.json).write_text(json.dumps(figures, indent=1))
+
+
+if __name__ == "__main__":
+    main()
