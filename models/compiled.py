@@ -9,10 +9,13 @@ style); the same row function serves N = 1 and a million rows:
   kernels must round as the golden answers were rounded. :func:`parallel_jit` adds
   ``parallel=True`` for the ``prange`` loops over rows of a batch.
 * **Cache**: compiled code is cached on disk, so a process loads it instead of compiling
-  (``IMPACTNET_KERNEL_CACHE_DIR``; default: next to the sources where they are writable, else
-  ``$XDG_CACHE_HOME/impactnet/kernels`` or ``~/.cache/impactnet/kernels``, else a folder in
-  the temporary directory). numba keys the cache by CPU: an image built on one machine and run
-  on another sets ``NUMBA_CPU_NAME=generic`` for both (docker/Dockerfile).
+  (``IMPACTNET_KERNEL_CACHE_DIR``; default: ``__pycache__/kernels`` beside these sources where
+  they are writable, else ``$XDG_CACHE_HOME/impactnet/kernels`` or
+  ``~/.cache/impactnet/kernels``, else a folder in the temporary directory), each kernel
+  stamped with the :func:`fingerprint` of the files it may inline, so that editing a module
+  recompiles the kernels that depend on it (numba alone notices a kernel's own file only).
+  numba keys the cache by CPU: an image built on one machine and run on another sets
+  ``NUMBA_CPU_NAME=generic`` for both (docker/Dockerfile).
 * **Threads**: ``IMPACTNET_KERNEL_THREADS`` (default: the cores this process may use) threads
   run a parallel kernel (:func:`set_threads`).
 * **Launches**: parallel kernels are launched one at a time (:func:`launch`, one lock), so any
@@ -28,6 +31,7 @@ style); the same row function serves N = 1 and a million rows:
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import tempfile
 import threading
@@ -57,32 +61,91 @@ def _writable(folder: Path) -> bool:
 
 
 def cache_folder() -> Path | None:
-    """Where compiled code is cached: the setting, else None where numba's own default (next to
-    the sources) is writable, else the first writable user or temporary folder."""
+    """Where compiled code is cached (module docstring), before the sources' fingerprint: the
+    setting, else a folder beside the sources where they are writable, else the first writable
+    user or temporary folder (None: nowhere, numba compiles in memory)."""
     given = os.environ.get(CACHE_ENV)
     if given:
         return Path(given)
-    if os.access(Path(__file__).resolve().parent, os.W_OK):
-        return None
+    beside = Path(__file__).resolve().parent / "__pycache__" / "kernels"
     home = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    for folder in (Path(home) / "impactnet" / "kernels",
+    for folder in (beside, Path(home) / "impactnet" / "kernels",
                    Path(tempfile.gettempdir()) / f"impactnet-kernels-{os.getuid()}"):
         if _writable(folder):
             return folder
     return None
 
 
-def _configure() -> None:
-    """Set numba's environment before numba is imported (it reads it once)."""
-    folder = cache_folder()
-    if folder is not None and "NUMBA_CACHE_DIR" not in os.environ:
-        folder.mkdir(parents=True, exist_ok=True)
-        os.environ["NUMBA_CACHE_DIR"] = str(folder)
+#: The folders of ``impactnet.models`` whose kernels inline functions of other folders: a
+#: kernel's cache is stale when any file of its own folder or of these changes.
+DEPENDS_ON = {"box": ("box",), "compound": ("compound", "box"),
+              "distance": ("distance", "compound", "box"), "frame": ("frame",),
+              "learned": ("learned", "box"), "dispatch": ("dispatch", "compound", "box")}
+#: Files every kernel may inline, besides its folders': this module, the contact codes, the
+#: input domain, the work limit, the geometry helpers.
+SHARED = ("compiled.py", "contacts.py", "domain.py", "work.py", "geometry")
 
+
+def fingerprint(folder: str | None = None) -> str:
+    """A hash of the sources a kernel of ``folder`` (a sub-folder of ``impactnet.models``;
+    None: all of them) may inline, and of numba's version. numba's own cache notices a change
+    of a kernel's own file only, not of a module whose functions it inlines (a stale kernel
+    once crashed), so each cached kernel is stamped with this hash too (:class:`_Locator`)."""
+    from importlib.metadata import version
+
+    root = Path(__file__).resolve().parent
+    names = SHARED + (DEPENDS_ON.get(folder, (folder,)) if folder else ("",))
+    paths = sorted({p for name in names for p in ((root / name).rglob("*.py")
+                                                   if (root / name).is_dir() else
+                                                   [root / name]) if p.exists()})
+    digest = hashlib.sha1(version("numba").encode())
+    for path in paths:
+        digest.update(path.relative_to(root).as_posix().encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _configure() -> None:
+    """Install :class:`_Locator` first among numba's cache locators (before any kernel is
+    compiled); a NUMBA_CACHE_DIR set by the caller keeps numba's own locator."""
+    if "NUMBA_CACHE_DIR" in os.environ:
+        return
+    from numba.core.caching import CacheImpl, UserProvidedCacheLocator
+
+    class _Locator(UserProvidedCacheLocator):
+        """Kernels of ``impactnet.models`` cached under :func:`cache_folder`, each stamped
+        with its own file and the :func:`fingerprint` of its folder's dependencies."""
+
+        root = Path(__file__).resolve().parent
+        base = cache_folder()
+        stamps: dict[str, str] = {}
+
+        def __init__(self, py_func, py_file):
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            self._cache_path = str(self.base / self.get_suitable_cache_subpath(py_file))
+            relative = Path(py_file).resolve().relative_to(self.root).parts
+            self._folder = relative[0] if len(relative) > 1 else None
+
+        def get_source_stamp(self):
+            folder = self._folder or ""
+            if folder not in self.stamps:
+                self.stamps[folder] = fingerprint(self._folder)
+            return super().get_source_stamp(), self.stamps[folder]
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            inside = Path(py_file).resolve().is_relative_to(cls.root)
+            if cls.base is None or not inside:
+                return None
+            return super(UserProvidedCacheLocator, cls).from_function(py_func, py_file)
+
+    CacheImpl._locator_classes.insert(0, _Locator)
+
+
+import numba  # noqa: E402
 
 _configure()
-
-import numba  # noqa: E402 - after the cache folder is set
 
 _LAUNCH = threading.Lock()
 _WARM_UPS: list[Callable[[], None]] = []

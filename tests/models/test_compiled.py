@@ -3,6 +3,8 @@ parallel launches are safe from many threads at once, the cache folder is writab
 the package is installed, warm-ups run once registered."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -54,9 +56,36 @@ def test_the_cache_folder_is_the_setting_else_a_writable_user_folder(monkeypatch
     monkeypatch.setenv(compiled.CACHE_ENV, str(tmp_path / "given"))
     assert compiled.cache_folder() == tmp_path / "given"
     monkeypatch.delenv(compiled.CACHE_ENV)
-    monkeypatch.setattr(compiled.os, "access", lambda path, mode: False)  # a read-only install
+    real, sources = compiled._writable, str(Path(compiled.__file__).resolve().parent)
+    monkeypatch.setattr(compiled, "_writable",  # a read-only install: beside the sources fails
+                        lambda folder: not str(folder).startswith(sources) and real(folder))
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     assert compiled.cache_folder() == tmp_path / "cache" / "impactnet" / "kernels"
+
+
+def test_the_fingerprint_changes_with_a_file_a_kernel_may_inline(monkeypatch, tmp_path):
+    root = tmp_path / "models"
+    for folder in ("box", "compound", "frame"):
+        (root / folder).mkdir(parents=True)
+        (root / folder / "k.py").write_text("x = 1\n")
+    monkeypatch.setattr(compiled, "__file__", str(root / "compiled.py"))
+    before = {f: compiled.fingerprint(f) for f in ("box", "compound", "frame")}
+    assert before["box"] == compiled.fingerprint("box") and len(before["box"]) == 16
+    (root / "box" / "k.py").write_text("x = 2\n")  # compound kernels inline box functions
+    after = {f: compiled.fingerprint(f) for f in ("box", "compound", "frame")}
+    assert after["box"] != before["box"] and after["compound"] != before["compound"]
+    assert after["frame"] == before["frame"]
+
+
+def test_kernels_of_impactnet_are_stamped_with_their_fingerprint():
+    from numba.core.caching import CacheImpl
+
+    from impactnet.models.box import kernels
+
+    locator = CacheImpl._locator_classes[0].from_function(kernels.solve_pair.py_func,
+                                                          kernels.__file__)
+    own, stamp = locator.get_source_stamp()
+    assert stamp == compiled.fingerprint("box")
 
 
 def test_thread_counts_stay_within_numba_s_pool():
