@@ -34,14 +34,18 @@ $(PY):
 	$(BOOTSTRAP_PYTHON) -m venv $(VENV)
 
 # Runtime only (what serving needs): no torch.
+# The install ends by compiling every kernel into its cache (models/compiled.py), so that the
+# server's start only loads them.
 $(STAMP_RUNTIME): pyproject.toml setup.py | $(PY)
 	$(PIP) install -e .
+	$(PY) -m impactnet.models.compiled
 	@touch $@
 
 # torch first, pinned, so that the `torch` requirement of the train extra is already met.
 $(STAMP_DEV): pyproject.toml setup.py | $(PY)
 	$(PIP) install torch==$(TORCH_VERSION)
 	$(PIP) install -e '.[train,dev]'
+	$(PY) -m impactnet.models.compiled
 	@touch $@ $(STAMP_RUNTIME)
 
 install: $(STAMP_RUNTIME)

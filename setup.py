@@ -1,7 +1,7 @@
 """Packaging: the repository's top-level folders install under one namespace.
 
 ``models/``, ``service/``, ``training/`` and ``scenes/`` stay where they are in the repository
-(DESIGN.md's layout) and install as ``impactnet.models``, ``impactnet.service``,
+(docs/design.md's layout) and install as ``impactnet.models``, ``impactnet.service``,
 ``impactnet.training`` and ``impactnet.scenes``, so that nothing generic like ``models`` lands at
 the top of site-packages. Subpackages are discovered automatically (``find_packages`` per folder);
 everything else about the distribution lives in ``pyproject.toml``.

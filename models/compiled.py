@@ -218,9 +218,9 @@ def warm_up() -> int:
 
 #: The modules that hold kernels (imported by :func:`warm_up`, which runs their warm-ups): each
 #: registers its warm-up with :func:`on_warm_up` when imported.
-KERNEL_MODULES = ("impactnet.models.box.kernels", "impactnet.models.compound.kernels",
+KERNEL_MODULES = ("impactnet.models.box.warm_up", "impactnet.models.compound.kernels",
                   "impactnet.models.learned.kernels", "impactnet.models.frame.broadphase",
-                  "impactnet.models.distance.kernels", "impactnet.models.distance.bodies")
+                  "impactnet.models.distance.query", "impactnet.models.distance.bodies")
 
 
 def main() -> int:
@@ -230,7 +230,7 @@ def main() -> int:
 
     started = time.perf_counter()
     count = compiled.warm_up()
-    folder = os.environ.get("NUMBA_CACHE_DIR") or "next to the sources"
+    folder = os.environ.get("NUMBA_CACHE_DIR") or compiled.cache_folder() or "none (in memory)"
     print(f"impactnet kernels: {count} warm-ups in {time.perf_counter() - started:.1f} s; "
           f"cache: {folder}")
     return 0

@@ -1,6 +1,6 @@
 """The result type shared by every predictor: `Contacts`, arrays over N pairs.
 
-Conventions (see DESIGN.md): metres, world frame; ``normal`` points from A towards B (the
+Conventions (see docs/design.md): metres, world frame; ``normal`` points from A towards B (the
 direction in which B must move to separate); ``depth`` >= 0 is the penetration along
 ``normal``; ``point`` lies on the mid-surface between the bodies.
 
@@ -33,7 +33,7 @@ NONE, VERTEX_FACE, FACE_VERTEX, EDGE_EDGE, EDGE_FACE, FACE_EDGE, FACE_FACE = ran
 #: The rule that defines ``point`` and its version, reported by the service's ``GET /v1/models``
 #: under ``conventions`` so that a client can check what it gets (CHANGELOG.md). Version 1 was
 #: the depth-weighted mean of the manifold's vertices; version 2 is the centre of pressure of the
-#: overlap footprint (DESIGN.md, :mod:`impactnet.models.box.kernel_pressure`).
+#: overlap footprint (docs/design.md, :mod:`impactnet.models.box.kernel_pressure`).
 POINT_RULE = "centre-of-pressure"
 POINT_RULE_VERSION = 2
 
@@ -56,7 +56,7 @@ class Contacts:
         Penetration depth along ``normal`` in metres; 0 for separated rows.
     point : ndarray of float64, shape (n, 3)
         Impact point in the world frame, metres: the centre of pressure on the mid-surface
-        (DESIGN.md); the midpoint of the two centres for separated rows.
+        (docs/design.md); the midpoint of the two centres for separated rows.
     contact_type_code : ndarray of int8, shape (n,)
         Index into :data:`CONTACT_TYPES`.
     feature_a, feature_b : ndarray of int8, shape (n,)

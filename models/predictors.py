@@ -2,13 +2,11 @@
 
 ``load_predictor(name, bundle=None)`` returns a callable with
 :func:`impactnet.models.box.exact.box_box`'s signature that returns `Contacts` with ``confidence``
-and
-``predictor`` filled. Names: ``exact`` (the SAT solver, no bundle needed), ``single``,
+and ``predictor`` filled. Names: ``exact`` (the SAT solver, no bundle needed), ``single``,
 ``committee``, ``auto`` (learned, from a bundle: a folder path or a loaded
-:class:`impactnet.models.bundle.format.Bundle`; None = the shipped default bundle,
-:data:`DEFAULT_BUNDLE`).
-A folder may be a plain bundle or a bundle store, which reads its ``current`` version
-(:func:`impactnet.models.bundle.store.resolve_bundle`).
+:class:`impactnet.models.learned.bundle_loader.Bundle`; None = the shipped default bundle,
+:data:`DEFAULT_BUNDLE`). A folder may be a plain bundle or a bundle store, which reads its
+``current`` version (:func:`impactnet.models.bundle.store.resolve_bundle`).
 """
 from __future__ import annotations
 
@@ -18,12 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from impactnet.models.box.exact import box_box
-from impactnet.models.bundle.format import Bundle, BundleError, read_bundle
 from impactnet.models.bundle.store import resolve_bundle
 from impactnet.models.contacts import Contacts
-from impactnet.models.learned.batch import CommitteePredictor, SinglePredictor
+from impactnet.models.learned.batch import CommitteePredictor, Prediction, SinglePredictor
+from impactnet.models.learned.bundle_loader import Bundle, BundleError, read_bundle
 from impactnet.models.learned.chain import FallbackChain
-from impactnet.models.learned.one_pair import Prediction
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 
 #: The bundle of the default scene, shipped in the repository.
@@ -69,7 +66,7 @@ def load_predictor(name: str = "auto", bundle: str | os.PathLike | Bundle | None
     ------
     ValueError
         Unknown name.
-    impactnet.models.bundle.format.BundleError
+    impactnet.models.bundle.manifest.BundleError
         The bundle is missing, altered or malformed (a learned name without a bundle and no
         shipped default is reported the same way, naming the folder looked at).
     """

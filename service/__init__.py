@@ -1,18 +1,22 @@
-"""The HTTP service: FastAPI app (``impactnet.service.app.create_app``), schemas, settings, client.
+"""The HTTP service: FastAPI app (``impactnet.service.app.create_app``), settings, client.
 
-Layout: ``settings`` (one BaseSettings, ``IMPACTNET_*``), ``schemas`` (pydantic request /
-response models), ``routers/`` (contact, batch, models, health, metrics, admin),
-``predictors`` (modes -> predictors, the immutable serving state), ``state`` (building a
-state: scene, learned bundle, checks), ``smoke`` (a bundle's smoke test against the exact
-solver), ``reload`` (the admin reload's steps, lock and deadline) and ``bundle_guard`` (the
-bundle's files checked before they are read), ``pairs`` (one pair in and out), a batch in
-``npz`` / ``batch_json`` (+ ``json_split``, ``scan``) -> ``columns`` -> ``batch_solve`` ->
-``answer_encode``, ``body`` (bodies read first: caps, the deadline of ``uploads``, memory),
-``budget`` (the process's memory budget and per-request leases), ``middleware`` (request id,
-access log, metrics, compute slots; helpers in ``respond``), ``saturation`` (what /readyz
-reports), ``json_keys`` (duplicate and unknown keys), ``errors`` (one JSON error envelope),
-``cli`` (``impactnet serve``), ``server`` (drain and shutdown), ``client`` (a keep-alive
-client for simulators), ``bench_http`` (the HTTP benchmark).
+Layers, top to bottom (nothing below imports from a layer above):
 
-May import `models`; never imports torch or `training`.
+* ``api/``: FastAPI glue: the app's routers (contact, batch, frame, models, health, metrics,
+  docs, admin), response schemas, error handlers, middleware, dependencies;
+* ``codecs/``: the wire format: requests (``requests``), one pair (``pair``), a frame
+  (``frame``), a batch's body (``npz`` / ``batch_json`` with ``json_split`` and ``scan`` ->
+  ``columns``), answers (``answers``, ``features``, ``angles``, ``stream``), keys
+  (``json_keys``);
+* the serving core: ``solve`` (a request's pairs through the one dispatcher, admitted in
+  lanes), ``predictors`` (the immutable serving state), ``state`` (building it: scene,
+  bundle, smoke test), ``scene``, ``errors`` (the one error envelope), ``limits/`` (bodies,
+  the memory budget, lanes and deadlines, saturation, memory trims), ``reload`` and
+  ``store_follow`` (new bundles), ``runtime``, ``metrics``, ``settings``;
+* ``models``: :mod:`impactnet.models` (the dispatcher and the solvers).
+
+Beside them: ``cli`` (``impactnet serve``), ``server`` (drain and shutdown), ``client`` (a
+keep-alive client for simulators), ``probe`` (probes of a server from outside), ``fleet/``. The
+HTTP benchmark is :mod:`impactnet.training.bench.http.service_speed`. May import `models`; never
+imports torch or `training`.
 """

@@ -1,12 +1,12 @@
 """``create_app(settings)``: the FastAPI application of impactnet.
 
-Lifespan: the scene, the learned bundle (checksums, scene hash, smoke test) and the predictors
-are loaded and warmed up in a worker thread (:mod:`impactnet.service.state`), in the background by
-default, so /healthz answers at once and /readyz says 503 until the state is installed;
-leaving the lifespan (shutdown) turns /readyz to 503 again. Where the bundle folder is a store,
-the lifespan also runs its follower (:mod:`impactnet.service.store_follow`) and cancels it on
-shutdown. The admin reload route
-(:mod:`impactnet.service.api.routers.admin`) is included only when an admin token is configured.
+Lifespan: the scene, the learned bundle (checksums, scene hash, smoke test) and the predictors are
+loaded and warmed up in a worker thread (:mod:`impactnet.service.state`), in the background by
+default, so /healthz answers at once and /readyz says 503 until the state is installed; leaving the
+lifespan (shutdown) turns /readyz to 503 again. Where the bundle folder is a store, the lifespan
+also runs its follower (:mod:`impactnet.service.store_follow`) and cancels it on shutdown. The admin
+reload route (:mod:`impactnet.service.api.routers.admin`) is included only when an admin token is
+configured.
 """
 from __future__ import annotations
 
@@ -20,7 +20,16 @@ from fastapi.openapi.utils import get_openapi
 from impactnet import __version__
 from impactnet.service.api import errors
 from impactnet.service.api.middleware import ConcurrencyLimit, RequestContext
-from impactnet.service.api.routers import admin, batch, contact, docs, health, metrics, models
+from impactnet.service.api.routers import (
+    admin,
+    batch,
+    contact,
+    docs,
+    frame,
+    health,
+    metrics,
+    models,
+)
 from impactnet.service.api.schemas import BatchRequest, ContactRequest, ReloadRequest
 from impactnet.service.limits.body import BodyReader
 from impactnet.service.predictors import ServingState
@@ -116,7 +125,7 @@ def create_app(settings: Settings | None = None, state: ServingState | None = No
     app.state.reloader = Reloader(runtime)
     errors.install(app)
     admin_enabled = bool(settings.admin_token and settings.admin_token.get_secret_value())
-    routers = (contact, batch, models, health, metrics, docs)
+    routers = (contact, batch, frame, models, health, metrics, docs)
     for module in routers + ((admin,) if admin_enabled else ()):
         app.include_router(module.router)
     # add_middleware prepends: the last one added is the outermost.

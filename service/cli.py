@@ -1,11 +1,10 @@
 """``impactnet serve``: ``add_arguments(parser)`` and ``run(args) -> int``.
 
-Nothing heavy is imported at module level (``impactnet --help`` stays instant): uvicorn and
-the app are imported inside :func:`run`. The scene and the bundle are loaded (checksums,
-scene hash, smoke test) before the port is bound: a failure exits with status 2. Flags
-override ``IMPACTNET_*`` environment variables (see :class:`impactnet.service.settings.Settings`);
-the
-admin token is read from the environment only (a flag would show in ``ps``).
+Nothing heavy is imported at module level (``impactnet --help`` stays instant): uvicorn and the app
+are imported inside :func:`run`. The scene and the bundle are loaded (checksums, scene hash, smoke
+test) before the port is bound: a failure exits with status 2. Flags override ``IMPACTNET_*``
+environment variables (see :class:`impactnet.service.settings.Settings`); the admin token is read
+from the environment only (a flag would show in ``ps``).
 
 Shutdown: the first SIGTERM / SIGINT turns /readyz to 503 at once and every answer says
 ``Connection: close``; after ``drain_delay_s`` (1 s by default) so that a load balancer can take

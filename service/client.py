@@ -7,12 +7,11 @@
                               "quaternion": [1, 0, 0, 0]},
                            b={"object": "spreader", "position": [0, 0, 1.69],
                               "euler": [0, 0, 0.01]})
-        c["point"], c["normal"], c["depth"], c["contact_type"]
-        out = client.batch({"a_object": "container40", "a_position": positions_a, ...})
-        out["point"]  # (N, 3) float64
-        # compound scene objects: summary columns, and the part contacts of each row
-        out = client.batch({"a_object": "container40", "b_object": "spreader", ...})
-        contacts_of(out, 0)["part_b"]  # e.g. ['head_fl', 'head_fr']
+        c["point"], c["normal"], c["depth"], c["contact_type"], c["contacts"][0]["part_b"]
+        out = client.batch({"a_object": "container40", "a_position": positions_a, ...,
+                            "b_object": "spreader", ...})
+        out["point"]  # (N, 3) float64, the same columns for box and compound bodies
+        contacts_of(out, 0)["part_b"]  # e.g. ['head_fl', 'head_fr'], the deepest first
 
 Dependencies: the standard library and NumPy (orjson, when installed, for speed).
 Not thread-safe: one client per thread (a connection carries one request at a time).
@@ -36,9 +35,6 @@ except ImportError:  # pragma: no cover
 
 JSON = "application/json"
 NPZ = "application/x-npz"
-#: impactnet.models.contacts.CONTACT_TYPES, repeated so that the client needs only NumPy.
-CONTACT_TYPES = ("none", "vertex-face", "face-vertex", "edge-edge", "edge-face", "face-edge",
-                 "face-face")
 
 
 class ServiceError(Exception):
@@ -63,6 +59,7 @@ class ImpactClient:
         self._conn: http.client.HTTPConnection | None = None
         self.last_model_version: str | None = None  # X-Model-Version of the latest answer
         self.last_request_id: str | None = None
+        self._worlds: dict[str, dict] = {}  # registered worlds' requests, to register again
 
     # ------------------------------------------------------------------ transport
 
@@ -146,88 +143,169 @@ class ImpactClient:
         return self._check(status, headers, data)
 
     def contact(self, a: dict, b: dict, mode: str | None = None, include=(),
-                euler_convention: str | None = None) -> dict:
-        """One pair. ``a``/``b``: ``{"size" | "object", "position", "quaternion" | "matrix" |
-        "euler"}`` (lists or arrays). Returns the JSON answer as a dict."""
+                euler_convention: str | None = None, margin: float | None = None) -> dict:
+        """One pair. ``a``/``b``: ``{"size" | "object" | "parts", "position", "quaternion" |
+        "matrix" | "euler"}`` (lists or arrays). Returns the JSON answer as a dict: the body
+        level (``colliding, point, normal, depth, distance, contact_type, feature_a,
+        feature_b, predictor, confidence, cluster_size``) and ``contacts``, the part
+        contacts, the deepest first. ``margin`` (m): the gap is reported up to it."""
         payload = {"a": a, "b": b, "include": list(include)}
-        if mode is not None:
-            payload["mode"] = mode
-        if euler_convention is not None:
-            payload["euler_convention"] = euler_convention
-        return self._json("POST", "/v1/contact", payload)
+        for key, value in (("mode", mode), ("euler_convention", euler_convention),
+                           ("margin", margin)):
+            if value is not None:
+                payload[key] = value
+        return self._json("POST", "/v2/contact", payload)
 
     def batch(self, columns: dict, mode: str | None = None, include=(),
-              euler_convention: str | None = None, binary: bool = True) -> dict[str, np.ndarray]:
+              euler_convention: str | None = None, margin: float | None = None,
+              binary: bool = True) -> dict:
         """N pairs as columns (``a_size`` | ``a_object``, ``a_position``, ``a_quaternion`` |
-        ``a_matrix`` | ``a_euler``, same for ``b_``; one value or N). Returns arrays:
-        ``colliding, point, normal, depth, contact_type (names), contact_type_code,
-        feature_a, feature_b, axis, confidence, predictor (names)`` (+ manifold / paper
-        angles when included), and the scalars ``mode``, ``model_version``.
+        ``a_matrix`` | ``a_euler``, same for ``b_``; one value or N), box and compound bodies
+        alike. Returns the one answer shape as arrays, whatever the encoding:
+
+        * per pair (N): ``colliding, point, normal, depth, distance`` (inf beyond the margin),
+          ``contact_type`` (names), ``feature_a`` / ``feature_b`` (``{part, id, name,
+          kind}``), ``predictor``, ``confidence``, ``cluster_size`` (+ ``paper_angles``);
+        * ``contacts``: the ragged part contacts with ``offsets`` (N + 1,);
+          :func:`contacts_of` gives one pair's;
+        * the scalars ``n``, ``mode``, ``model_version``.
 
         ``binary=True`` sends and receives npz (float64, no JSON round trip); False uses JSON.
-        A batch that names compound objects returns the summary columns (``colliding, point,
-        normal, depth, cluster_size, predictor``) and ``contacts`` (ragged part contacts,
-        ``offsets`` (N + 1,); :func:`contacts_of` gives one row's) in both encodings.
         """
         options = {"mode": mode, "include": list(include) or None,
-                   "euler_convention": euler_convention}
+                   "euler_convention": euler_convention, "margin": margin}
         options = {k: v for k, v in options.items() if v is not None}
-        if binary:
-            buffer = io.BytesIO()
-            np.savez(buffer, **{k: np.asarray(v) for k, v in columns.items()})
-            query = urllib.parse.urlencode(options, doseq=True)
-            status, headers, data = self.request(
-                "POST", "/v1/contact/batch" + (f"?{query}" if query else ""),
-                buffer.getvalue(), {"Content-Type": NPZ, "Accept": NPZ})
-            self._check(status, headers, data)
-            with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-                raw = {k: npz[k] for k in npz.files}
-            if "contact_offsets" in raw:
-                return _compound(raw)
-            out = {k: v for k, v in raw.items() if not k.endswith(("_code", "_names"))
-                   and k not in ("mode", "model_version")}
-            out["contact_type_code"] = raw["contact_type_code"]
-            out["contact_type"] = raw["contact_type_names"][raw["contact_type_code"]]
-            out["predictor"] = raw["predictor_names"][raw["predictor_code"]]
-            out["mode"], out["model_version"] = str(raw["mode"]), str(raw["model_version"])
-            return out
-        body = self._json("POST", "/v1/contact/batch", dict(columns) | options)
-        if "contacts" in body:
-            ragged = body.pop("contacts")
-            return _compound({**body, **{("contact_offsets" if k == "offsets" else
-                                          k if k.startswith("contact_") else f"contact_{k}"): v
-                                         for k, v in ragged.items()}})
-        out = {}
-        for key, value in body.items():
-            if key in ("mode", "model_version", "n"):
-                out[key] = value
-            elif key == "paper_angles":
-                out[key] = np.array(value, dtype=np.float64)  # null -> NaN
-            else:
-                out[key] = np.asarray(value)
-        unique, inverse = np.unique(out["contact_type"], return_inverse=True)
-        codes = np.array([CONTACT_TYPES.index(str(u)) for u in unique], dtype=np.int8)
-        out["contact_type_code"] = codes[inverse.reshape(-1)]
-        return out
+        if not binary:
+            return _arrays(self._json("POST", "/v2/contact/batch", dict(columns) | options))
+        buffer = io.BytesIO()
+        np.savez(buffer, **{k: np.asarray(v) for k, v in columns.items()})
+        query = urllib.parse.urlencode(options, doseq=True)
+        status, headers, data = self.request(
+            "POST", "/v2/contact/batch" + (f"?{query}" if query else ""),
+            buffer.getvalue(), {"Content-Type": NPZ, "Accept": NPZ})
+        self._check(status, headers, data)
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            return _nested({k: npz[k] for k in npz.files})
+
+    def register_world(self, bodies: list[dict], euler_convention: str | None = None) -> str:
+        """POST /v2/worlds: register static ``bodies`` (a frame's body objects) on the
+        server; returns the world's name. The client keeps them, so that a frame naming the
+        world registers it again where a replica does not hold it (409 ``unknown_world``)."""
+        payload = {"bodies": bodies} | ({"euler_convention": euler_convention}
+                                        if euler_convention else {})
+        name = self._json("POST", "/v2/worlds", payload)["world"]
+        self._worlds[name] = payload
+        return name
+
+    def frame(self, bodies, world: str | None = None, margin: float | None = None,
+              mode: str | None = None, include=(), euler_convention: str | None = None,
+              pairs: str | None = None) -> dict:
+        """POST /v2/frame: every pair of ``bodies`` (and of the registered ``world``) that
+        touches or lies within ``margin`` (m).
+
+        ``bodies``: a list of body objects (``{"id", "object" | "size" | "parts",
+        "position", "quaternion" | "matrix" | "euler"}``): sent as JSON, the answer is the
+        JSON dict (``pairs``: one pair's answer each, with ``a`` and ``b``, the bodies' ids);
+        or a dict of columns (``id``, ``object`` | ``size``, ``position``, one orientation):
+        sent as npz, the answer is arrays as :meth:`batch` gives them, with ``a`` and ``b``.
+        """
+        options = {"world": world, "margin": margin, "mode": mode,
+                   "include": list(include) or None, "euler_convention": euler_convention,
+                   "pairs": pairs}
+        options = {k: v for k, v in options.items() if v is not None}
+        for attempt in range(2):
+            try:
+                if isinstance(bodies, dict):
+                    return self._frame_npz(bodies, options)
+                return self._json("POST", "/v2/frame", {"bodies": list(bodies)} | options)
+            except ServiceError as exc:
+                if exc.error != "unknown_world" or world not in self._worlds or attempt:
+                    raise
+                self._json("POST", "/v2/worlds", self._worlds[world])
+        raise AssertionError("unreachable")
+
+    def _frame_npz(self, columns: dict, options: dict) -> dict:
+        buffer = io.BytesIO()
+        np.savez(buffer, **{k: np.asarray(v) for k, v in columns.items()})
+        query = urllib.parse.urlencode(options, doseq=True)
+        status, headers, data = self.request(
+            "POST", "/v2/frame" + (f"?{query}" if query else ""), buffer.getvalue(),
+            {"Content-Type": NPZ, "Accept": NPZ})
+        self._check(status, headers, data)
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            return _nested({k: npz[k] for k in npz.files})
 
 
-def _compound(raw: dict) -> dict:
-    """A compound batch answer: the summary columns as arrays (N rows), and ``contacts``, the
-    ragged part contacts as arrays with ``offsets`` (N + 1,); :func:`contacts_of` splits them
-    per row."""
-    out = {k: (str(v) if k in ("mode", "model_version") else v if k == "n" else np.asarray(v))
-           for k, v in raw.items() if not k.startswith("contact_")}
-    out["contacts"] = {("offsets" if k == "contact_offsets" else k.removeprefix("contact_")
-                        if k != "contact_type" else k): np.asarray(v)
-                       for k, v in raw.items() if k.startswith("contact_")}
+#: Scalars of a batch answer.
+_SCALARS = {"n": int, "n_bodies": int, "mode": str, "model_version": str}
+
+
+def _nested(members: dict) -> dict:
+    """An npz answer's members (named by path, a contact's with ``contact_`` first) as the
+    nested dict of the JSON answer."""
+    out: dict = {}
+    for name, value in members.items():
+        if name in _SCALARS:
+            out[name] = _SCALARS[name](value)
+            continue
+        target, key = out, name
+        if key.startswith("contact_") and key != "contact_type":  # the pair's own type
+            target, key = out.setdefault("contacts", {}), key.removeprefix("contact_")
+        for side in ("feature_a_", "feature_b_"):
+            if key.startswith(side):
+                target, key = target.setdefault(side[:-1], {}), key.removeprefix(side)
+        target[key] = value
     return out
 
 
-def contacts_of(answer: dict, i: int) -> dict[str, np.ndarray]:
-    """The part contacts of row ``i`` of a compound batch answer (columns of its rows)."""
+#: Columns of names (a missing name is empty, as in the npz answer).
+_TEXT = frozenset({"contact_type", "predictor", "part", "part_a", "part_b", "name", "kind"})
+#: Columns of integers, and of booleans.
+_INTEGER = frozenset({"id", "offsets", "axis", "cluster_size", "manifold_count"})
+_BOOLEAN = frozenset({"colliding"})
+#: A row's shape of the columns of numbers that are not one number a row.
+_ROW_SHAPE = {"point": (3,), "normal": (3,), "closest_a": (3,), "closest_b": (3,),
+              "paper_angles": (4,), "manifold_points": (8, 3), "manifold_depths": (8,)}
+
+
+def _column(key: str, values: list) -> np.ndarray:
+    """One JSON column as the npz answer's array: a missing distance is inf (beyond the
+    margin), a missing point or angle row NaN, a missing name empty."""
+    if key in _TEXT:
+        return np.array(["" if v is None else v for v in values], dtype=str)
+    if key in _INTEGER:
+        return np.asarray(values, dtype=np.int64)
+    if key in _BOOLEAN:
+        return np.asarray(values, dtype=bool)
+    shape = _ROW_SHAPE.get(key, ())
+    missing = np.inf if key == "distance" else np.nan
+    rows = [np.full(shape, missing) if v is None else v for v in values]
+    return np.array(rows, dtype=np.float64).reshape(len(values), *shape)
+
+
+def _arrays(body: dict, path: tuple = ()) -> dict:
+    """A JSON answer's columns as the npz answer's arrays (:func:`_column`), nested alike."""
+    out: dict = {}
+    for key, value in body.items():
+        if isinstance(value, dict):
+            out[key] = _arrays(value, (*path, key))
+        elif key in _SCALARS and not path:
+            out[key] = value
+        else:
+            out[key] = _column(key, value)
+    return out
+
+
+def contacts_of(answer: dict, i: int) -> dict:
+    """The part contacts of pair ``i`` of a batch answer (columns of its rows, nested as the
+    answer's)."""
     contacts = answer["contacts"]
     start, stop = int(contacts["offsets"][i]), int(contacts["offsets"][i + 1])
-    return {k: v[start:stop] for k, v in contacts.items() if k != "offsets"}
+
+    def rows(columns: dict) -> dict:
+        return {k: rows(v) if isinstance(v, dict) else v[start:stop]
+                for k, v in columns.items() if k != "offsets"}
+    return rows(contacts)
 
 
 def _dumps(payload) -> bytes:

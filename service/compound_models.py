@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from impactnet.models.bundle.format import Bundle
 from impactnet.models.compound import compound_answer
 from impactnet.models.compound.parts import bounds
+from impactnet.models.learned.bundle_loader import Bundle
 from impactnet.models.learned.compound import chain_of
 from impactnet.models.learned.compound.chain import EXACT_PART, LEARNED, ORACLE
 from impactnet.service.smoke import SmokeTestFailed

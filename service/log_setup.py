@@ -6,8 +6,7 @@ line and error body written while the request is served (a context variable, so 
 the request into the thread pool).
 
 (Import as ``impactnet.service.log_setup``; inside the package ``import logging`` still means the
-standard
-library, since absolute imports never look in the package folder.)
+standard library, since absolute imports never look in the package folder.)
 """
 from __future__ import annotations
 

@@ -97,6 +97,16 @@ class Metrics:
         self.budget_peak.set_function(lambda: budget.peak)
         self.rss.set_function(resident_bytes)
 
+    def record_answers(self, mode: str, answers) -> None:
+        """Count a batch's pairs (an :class:`impactnet.models.dispatch.Answers`) by
+        predictor, and its size."""
+        import numpy as np
+
+        counts = np.bincount(answers.predictor, minlength=len(answers.predictor_names))
+        self.record_predictions(mode, dict(zip(answers.predictor_names.tolist(),
+                                               counts.tolist(), strict=True)))
+        self.batch_size.observe(len(answers))
+
     def record_predictions(self, mode: str, predictor_counts: dict[str, int]) -> None:
         """Count the pairs of one request by predictor; in mode 'auto' the rows that the exact
         solver answered are fallbacks."""

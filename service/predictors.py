@@ -1,30 +1,28 @@
 """Predictors by mode, and the immutable serving state that a request reads once.
 
-Modes: ``exact`` (the SAT solver, always there), ``single``, ``committee``, ``auto`` (learned,
-from a bundle): the predictors of :func:`impactnet.models.load_predictor`, called directly
-with :func:`pair_args`;
-:mod:`impactnet.service.state` builds them). A mode that cannot answer raises
-:class:`impactnet.service.errors.ModeUnavailable` (409: nothing serves it); a strict learned
-mode on a
-pair its bundle does not cover raises
-:class:`impactnet.models.learned.pair_dispatch.UnsupportedPairError`
-(422 ``unsupported_pair``, see :func:`impactnet.service.codecs.pairs.predict_checked`). Never a 500
-and never a
-silent substitute.
+Modes: ``exact`` (the SAT solver, always there), ``single``, ``committee``, ``auto`` (learned, from
+a bundle): the predictors of :func:`impactnet.models.load_predictor`, called directly with
+:func:`pair_args`; :mod:`impactnet.service.state` builds them). A mode that cannot answer raises
+:class:`impactnet.service.errors.ModeUnavailable` (409: nothing serves it); a strict learned mode on
+a pair its bundle does not cover raises
+:class:`impactnet.models.learned.pair_dispatch.UnsupportedPairError` (422 ``unsupported_pair``, see
+:mod:`impactnet.service.solve`). Never a 500 and never a silent substitute.
 
 Atomic swaps: a request takes ``app.state.serving`` once
-(:func:`impactnet.service.api.deps.get_serving`) and
-uses that :class:`ServingState` to the end, so an admin reload that builds a new state beside
-the old one and replaces the reference never mixes two model versions in one answer.
+(:func:`impactnet.service.api.deps.get_serving`) and uses that :class:`ServingState` to the end, so
+an admin reload that builds a new state beside the old one and replaces the reference never mixes
+two model versions in one answer.
 """
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from impactnet import __version__
+from impactnet.models.dispatch import Dispatcher
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.predictors import PREDICTOR_NAMES
 from impactnet.service.errors import ModeUnavailable
@@ -37,30 +35,10 @@ NO_BUNDLE_REASON = ("no learned bundle is loaded (start the server with --bundle
                     "ship models/bundles/<scene>); use mode 'exact'")
 
 
-@dataclass(frozen=True)
-class PairInputs:
-    """Validated, broadcast inputs of N pairs (float64, world frame, metres)."""
-
-    size_a: np.ndarray  # (n, 3) full edge lengths, > 0
-    position_a: np.ndarray  # (n, 3)
-    quaternion_a: np.ndarray  # (n, 4) unit [w, x, y, z]
-    size_b: np.ndarray
-    position_b: np.ndarray
-    quaternion_b: np.ndarray
-    object_a: np.ndarray  # (n,) int index into SceneView.object_names, -1 for a raw size
-    object_b: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.position_a.shape[0])
-
-
-def pair_args(pairs: PairInputs) -> tuple:
-    """The six argument arrays of a predictor call (``box_box``'s signature) for ``pairs``:
-    the rows themselves for one pair, so that the predictors take their plain-float N = 1
-    path."""
-    args = (pairs.size_a, pairs.position_a, pairs.quaternion_a, pairs.size_b, pairs.position_b,
-            pairs.quaternion_b)
-    return tuple(a[0] for a in args) if len(pairs) == 1 else args
+def pair_args(columns: tuple) -> tuple:
+    """The six argument arrays of a predictor call (``box_box``'s signature): the rows
+    themselves for one pair, so that the predictors take their N = 1 path."""
+    return tuple(a[0] for a in columns) if len(columns[0]) == 1 else tuple(columns)
 
 
 @dataclass(frozen=True)
@@ -77,6 +55,12 @@ class ServingState:
     compound: dict = field(default_factory=dict)  # "a/b" -> CompoundChain of the compound
     # pairs the bundle serves learned (issue #21); the others are answered by the oracle
     loaded_at: float = field(default_factory=time.time)  # UNIX seconds
+
+    @cached_property
+    def dispatcher(self) -> Dispatcher:
+        """The one dispatcher of this state's predictors and chains (built once)."""
+        learned = {m: p for m, p in self.predictors.items() if m != "exact"}
+        return Dispatcher(learned, self.compound)
 
     def predictor(self, mode: str):
         """The predictor of ``mode``; raises ModeUnavailable (409) naming the reason."""
@@ -104,17 +88,14 @@ def exact_model_version(scene: SceneView) -> str:
 def warm_up(state: ServingState) -> None:
     """One call of every predictor on the paper's cube pair (first-call costs, imports); a
     learned mode that has no model for the cubes is skipped (the smoke test covered it)."""
-    one = PairInputs(*(np.array([v], dtype=np.float64) for v in (
+    one = tuple(np.array([v], dtype=np.float64) for v in (
         [2.0, 2.0, 2.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0],
-        [2.0, 2.0, 2.0], [0.5, 0.3, 1.95], [1.0, 0.0, 0.0, 0.0])),
-        np.array([-1]), np.array([-1]))
-    two = PairInputs(*(np.repeat(a, 2, axis=0) for a in (
-        one.size_a, one.position_a, one.quaternion_a, one.size_b, one.position_b,
-        one.quaternion_b, one.object_a, one.object_b)))
+        [2.0, 2.0, 2.0], [0.5, 0.3, 1.95], [1.0, 0.0, 0.0, 0.0]))
+    two = tuple(np.repeat(a, 2, axis=0) for a in one)
     for predictor in state.predictors.values():
-        for pairs in (one, two):
+        for columns in (one, two):
             try:
-                result = predictor(*pair_args(pairs))
+                result = predictor(*pair_args(columns))
             except UnsupportedPairError:
                 break
             if predictor.mode == "exact" and not bool(result.colliding[0]):

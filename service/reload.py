@@ -1,8 +1,7 @@
 """Admin reload of the learned bundle: built beside the serving one, checked, then swapped.
 
-:meth:`Reloader.reload` runs in a worker thread (the event loop keeps answering) and takes
-these steps; the first that fails ends the reload with
-:class:`impactnet.service.errors.ReloadFailed`
+:meth:`Reloader.reload` runs in a worker thread (the event loop keeps answering) and takes these
+steps; the first that fails ends the reload with :class:`impactnet.service.errors.ReloadFailed`
 naming it, and the state that was serving keeps serving, untouched:
 
 1. ``resolve``: the folder: the one the request names (relative paths from the server's

@@ -23,6 +23,7 @@ from impactnet.service.metrics import Metrics
 from impactnet.service.predictors import ServingState, warm_up
 from impactnet.service.settings import Settings
 from impactnet.service.state import build_state
+from impactnet.service.worlds import Worlds
 
 log = logging.getLogger("impactnet.service")
 
@@ -76,6 +77,7 @@ class Runtime:
                            settings.max_queued_large_work)
         # freed memory given back after large requests (limits.trim)
         self.trimmer = Trimmer()
+        self.worlds = Worlds(settings.max_worlds)  # registered static worlds (POST /v2/worlds)
 
     def _memory_refused(self) -> None:
         self.metrics.rejected.labels("memory_budget").inc()

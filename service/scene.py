@@ -1,10 +1,9 @@
 """The scene as the service sees it: object names -> box sizes, looked up without Python loops.
 
 Wraps :func:`impactnet.models.scenes.load_scene` (``Scene.name``, ``Scene.bodies``: Body(name,
-size),
-``Scene.pairs``: BodyPair(a, b), ``Scene.hash()``). A server started without a scene
-(``scene=None``) accepts raw sizes only; a request that names an object then gets a 422 that
-says so.
+size), ``Scene.pairs``: BodyPair(a, b), ``Scene.hash()``). A server started without a scene
+(``scene=None``) accepts raw sizes only; a request that names an object then gets a 422 that says
+so.
 """
 from __future__ import annotations
 
@@ -66,9 +65,22 @@ class SceneView:
         ``len(self.object_names)``."""
         if not self.compound_names:
             return self
-        return SceneView(self.name, self.hash, self.object_names + self.compound_names,
+        view = SceneView(self.name, self.hash, self.object_names + self.compound_names,
                          np.concatenate([self.sizes, self.compound_sizes]), self.pairs,
                          bodies=self.bodies)
+        view.__dict__["shapes"] = self.shapes  # the same shapes, by the same indices
+        return view
+
+    @cached_property
+    def shapes(self) -> tuple:
+        """The shape of every object of :meth:`with_compound`, in its index order (a box object
+        a box shape, a compound object its parts), named; built once."""
+        from impactnet.models.dispatch.shapes import Shape
+
+        boxes = tuple(Shape.box(size, name, transient=False)
+                      for name, size in zip(self.object_names, self.sizes, strict=True))
+        return boxes + tuple(Shape(self.compound_parts[name], name)
+                             for name in self.compound_names)
 
     def parts_of(self, index: int, size) -> tuple:
         """The parts of object ``index`` of :meth:`with_compound` (a box object or a raw

@@ -63,6 +63,14 @@ class Settings(BaseSettings):
     memory_wait_s: float = Field(2.0, ge=0)
     # Largest number of pairs in one batch request (413 beyond it).
     max_batch_pairs: int = Field(100_000, ge=1)
+    # Most bodies of one frame (POST /v2/frame), its registered world's included, and of one
+    # registered world; 413 beyond. The pairs its broadphase finds are held to
+    # `max_batch_pairs` (413 `too_many_body_pairs`, the sweep stopped there).
+    max_frame_bodies: int = Field(20_000, ge=2)
+    # Static worlds a replica keeps (POST /v2/worlds); the least recently used is forgotten
+    # past it (a frame naming it then gets 409 `unknown_world`, and the client registers it
+    # again).
+    max_worlds: int = Field(16, ge=1)
     # Compound bodies: most part contacts one pose may answer with (413 beyond it, checked
     # as the contacts are found, chunk by chunk). Two 40 ft containers at detail 2 stacked
     # castings on castings give 40 (10 ring pieces x 4).

@@ -1,27 +1,25 @@
 """The smoke test that a learned bundle passes before it serves (at startup, on every reload).
 
-For each pair of the bundle, :func:`smoke_poses` draws ``n`` first-contact poses from a fixed
-seed (the same bundle always meets the same poses): A anywhere near the origin in a uniform
-random orientation, B in a uniform random orientation relative to A, coming in along a
-uniform random direction to first touch
-(:func:`impactnet.models.geometry.approach.touching_distance`, exact),
-then pushed in by a depth drawn from the pair's trained range. Every fourth row is given in
-the swapped order (B, A), which the predictors solve swapped and flip back. Then:
+For each pair of the bundle, :func:`smoke_poses` draws ``n`` first-contact poses from a fixed seed
+(the same bundle always meets the same poses): A anywhere near the origin in a uniform random
+orientation, B in a uniform random orientation relative to A, coming in along a uniform random
+direction to first touch (:func:`impactnet.models.geometry.approach.touching_distance`, exact), then
+pushed in by a depth drawn from the pair's trained range. Every fourth row is given in the swapped
+order (B, A), which the predictors solve swapped and flip back. Then:
 
 1. Every learned mode that the new state serves answers the whole batch, and its first row
    alone (the N = 1 path), through the service's own predictor objects: no exception, the
    right shapes, finite numbers, unit normals, confidences in [0, 1].
-2. The committee agrees with the exact solver within :class:`SmokeLimits`: the share of rows
-   whose colliding flag agrees, and the median normal angle error and median point error (a
-   fraction of the pair's length scale L, the sum of the two boxes' largest half-extents, as
-   in the features) on the rows whose point the experts give: both call the row colliding,
-   the committee answered it, and the region labeller's unclipped point is not already exact
+2. The committee agrees with the exact solver within :class:`SmokeLimits`: the share of rows whose
+   colliding flag agrees, and the median normal angle error and median point error (a fraction of
+   the pair's length scale L, the sum of the two boxes' largest half-extents, as in the features) on
+   the rows whose point the experts give: both call the row colliding, the committee answered it,
+   and the region labeller's unclipped point is not already exact
    (:func:`impactnet.models.learned.region_label.unclipped_points`). On the other rows the
-   committee's answer
-   is the exact labeller's by construction, so they would hide a broken network. The same
-   figures are reported for ``single`` (all colliding rows) and ``auto`` without a bound
-   (``single`` is the paper's coarse design; ``auto`` replaces the committee's unsure rows by
-   exact answers).
+   committee's answer is the exact labeller's by construction, so they would hide a broken network.
+   The same figures are reported for ``single`` (all colliding rows) and ``auto`` without a bound
+   (``single`` is the paper's coarse design; ``auto`` replaces the committee's unsure rows by exact
+   answers).
 
 The bounds are loose on purpose: they catch a bundle that is broken, not one that is a little
 less accurate (accuracy is measured by ``impactnet evaluate`` on held-out data). A failure
@@ -34,7 +32,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from impactnet.models.box.exact import box_box
-from impactnet.models.bundle.format import Bundle
 from impactnet.models.contacts import Contacts
 from impactnet.models.geometry.approach import touching_distance
 from impactnet.models.geometry.rotations import (
@@ -42,9 +39,10 @@ from impactnet.models.geometry.rotations import (
     quaternion_to_matrix,
     random_quaternions,
 )
+from impactnet.models.learned.bundle_loader import Bundle
 from impactnet.models.learned.region_label import unclipped_points
 from impactnet.models.metrics import angle_deg
-from impactnet.service.predictors import PairInputs, pair_args
+from impactnet.service.predictors import pair_args
 
 #: Seed of the smoke poses (fixed: a bundle's smoke result is reproducible).
 SMOKE_SEED = 20240601
@@ -65,8 +63,9 @@ class SmokeLimits:
     point_median_max: float = 0.2  # median point distance, fraction of the length scale L
 
 
-def smoke_poses(size_a, size_b, n: int, depth_fraction, seed: int = SMOKE_SEED) -> PairInputs:
-    """``n`` first-contact poses of one pair (module docstring), as service inputs."""
+def smoke_poses(size_a, size_b, n: int, depth_fraction, seed: int = SMOKE_SEED) -> tuple:
+    """``n`` first-contact poses of one pair (module docstring): the six columns of a
+    predictor call (``box_box``'s signature), (n, 3) or (n, 4) each."""
     rng = np.random.default_rng(seed)
     size_a, size_b = np.asarray(size_a, np.float64), np.asarray(size_b, np.float64)
     q_a = random_quaternions(n, rng)
@@ -87,13 +86,7 @@ def smoke_poses(size_a, size_b, n: int, depth_fraction, seed: int = SMOKE_SEED) 
         a, b = columns[first], columns[second]
         columns[first] = np.where(swap[:, None], b, a)
         columns[second] = np.where(swap[:, None], a, b)
-    unnamed = np.full(n, -1)
-    return PairInputs(*columns, unnamed, unnamed)
-
-
-def take(pairs: PairInputs, rows) -> PairInputs:
-    """The rows ``rows`` of ``pairs``."""
-    return PairInputs(*(getattr(pairs, f)[rows] for f in PairInputs.__dataclass_fields__))
+    return tuple(columns)
 
 
 def _check_answer(contacts: Contacts, n: int, where: str) -> None:
@@ -150,11 +143,9 @@ def smoke_test(predictors: dict, bundle: Bundle, n: int,
     report: dict = {"poses_per_pair": n, "limits": limits.__dict__.copy(), "pairs": {}}
     for key, models in bundle.pairs.items():
         pairs = smoke_poses(models.size_a, models.size_b, n, models.depth_fraction)
-        exact = box_box(pairs.size_a, pairs.position_a, pairs.quaternion_a, pairs.size_b,
-                        pairs.position_b, pairs.quaternion_b)
+        exact = box_box(*pairs)
         scale = 0.5 * (max(models.size_a) + max(models.size_b))  # L, metres
-        expert_rows = ~unclipped_points(pairs.size_a, pairs.position_a, pairs.quaternion_a,
-                                        pairs.size_b, pairs.position_b, pairs.quaternion_b)[1]
+        expert_rows = ~unclipped_points(*pairs)[1]
         figures = {}
         for mode, predictor in learned.items():
             if mode != "auto" and not _has_models(models, mode):
@@ -162,7 +153,7 @@ def smoke_test(predictors: dict, bundle: Bundle, n: int,
             where = f"pair {key}, mode {mode}"
             try:
                 batch = predictor(*pair_args(pairs))
-                one = predictor(*pair_args(take(pairs, slice(0, 1))))
+                one = predictor(*pair_args(tuple(c[:1] for c in pairs)))
             except Exception as exc:  # noqa: BLE001 - any failure is the bundle's
                 raise SmokeTestFailed(f"{where}: {type(exc).__name__}: {exc}") from exc
             _check_answer(batch, n, where)

@@ -12,8 +12,7 @@ A state is built in named steps, so that a failed start or admin reload says whi
 within size
    caps, so that no read can block or run without end), then
    :func:`impactnet.models.bundle.format.read_bundle` verifies the manifest, the file list, every
-   file's size
-   and SHA-256, the tensors and the pairs.
+   file's size and SHA-256, the tensors and the pairs.
 4. ``scene_hash``: the manifest's scene hash must equal the served scene's (a bundle trained
    for other bodies, depth range or accuracy is refused, never half-used).
 5. ``build``: the learned modes' predictors (:func:`models.load_predictor` with the bundle
@@ -24,16 +23,16 @@ within size
 
 The warm-up (:func:`impactnet.service.predictors.warm_up`) and the install follow in
 :class:`impactnet.service.runtime.Runtime`. The state's ``model_version`` is the bundle's
-``version``
-(manifest) when a bundle is loaded; read from a store, ``bundle["store_version"]`` names the
-version folder that ``current`` named when it was read (what a replica that follows the store
+``version`` (manifest) when a bundle is loaded; read from a store, ``bundle["store_version"]`` names
+the version folder that ``current`` named when it was read (what a replica that follows the store
 compares with the pointer, :mod:`impactnet.service.store_follow`).
 """
 from __future__ import annotations
 
 from pathlib import Path
 
-from impactnet.models.bundle.format import Bundle, BundleError, read_bundle
+from impactnet.models.bundle.format import BundleError
+from impactnet.models.learned.bundle_loader import Bundle, read_bundle
 from impactnet.models.learned.pair_dispatch import UNSUPPORTED, PairTable
 from impactnet.models.predictors import DEFAULT_BUNDLE, load_predictor
 from impactnet.service.compound_models import (

@@ -1,6 +1,6 @@
 """Stage 4 of the exact box-box solver: the impact point of a face contact, one pair.
 
-The rule (DESIGN.md). The separating-axis test picks a reference face (outward normal ``n``, on
+The rule (docs/design.md). The separating-axis test picks a reference face (outward normal ``n``, on
 the reference box); the other box is the incident box. The contact region is the footprint, on
 the reference face, of the incident box's part beyond the reference plane: every face of the
 incident box that looks towards the reference face (``m . n <= 0``; one per incident axis, so

@@ -27,8 +27,8 @@ the parallel one):
   in a dispatcher of its own that is closed once compiled (:func:`one_pair_entry`): input of
   another type is refused there, never compiled for.
 
-:func:`warm_up` (registered with :func:`impactnet.models.compiled.on_warm_up`) compiles or
-loads them all, and the views of :mod:`impactnet.models.box.kernel_views`.
+:mod:`impactnet.models.box.warm_up` compiles or loads them all, and the views of
+:mod:`impactnet.models.box.kernel_views`.
 
 The outputs are the `Contacts` arrays of :data:`OUTPUTS`, in that order, each C-contiguous
 with its field's dtype; rows past the manifold's count are zero.
@@ -57,7 +57,7 @@ from impactnet.models.box.kernel_inputs import (
 from impactnet.models.box.kernel_pressure import PRESSURE_SCRATCH, centre_of_pressure
 from impactnet.models.box.kernel_sat import decide
 from impactnet.models.box.tolerances import FACE_INC_CODES, FACE_REF_CODES, REGION_DEPTH_TOL_REL
-from impactnet.models.compiled import PARALLEL_MIN_ROWS, jit, numba, on_warm_up, parallel_jit
+from impactnet.models.compiled import jit, numba, parallel_jit
 
 #: The output arrays of the entries, in their order: `Contacts` fields with (shape, dtype).
 OUTPUTS = (("colliding", (), np.bool_), ("normal", (3,), np.float64),
@@ -282,32 +282,3 @@ def one_pair_entry():
                 solve_one.disable_compile()
                 _closed = True
     return solve_one
-
-
-@on_warm_up
-def warm_up() -> None:
-    """Compile (or load from the cache) every box kernel for every argument type the Python
-    entries pass: the one-pair entry (then closed), the serial and the parallel batch kernels,
-    the checks and their error reports, and the views of :mod:`impactnet.models.box.decision`.
-    """
-    from impactnet.models.box import decision, exact
-
-    pair = example_pair()
-    exact.box_box(*pair)
-    for n in (2, PARALLEL_MIN_ROWS):  # serial (checks and solve in one call); parallel
-        exact.box_box(*[np.repeat(value[None], n, axis=0) for value in pair])
-    rows = [value[None] for value in pair]
-    solve_rows(*rows, *output_arrays(1), 0, 1)  # a batch's last, short chunk
-    nan = np.full(3, np.nan)
-    for bad in ((nan, pair[1]), (pair[0], pair[1], pair[2][:3]), (-pair[0], pair[1])):
-        try:  # not finite; a bad shape after it (earlier inputs' finiteness first); size <= 0
-            exact.box_box(*bad, *pair[len(bad):])
-        except ValueError:
-            pass
-    exact.prepare_inputs(*pair)
-    decision.relative_pose(*pair)
-    decision.axis_table(*pair)
-    found = decision.decisions(*pair)
-    decision.reference_to_world(pair, [0], found.axis, found.quad[:, 0])
-    decision.single_pair(*pair)
-    decision.box_box_matrices(pair[0], pair[1], np.eye(3), pair[3], pair[4], np.eye(3))

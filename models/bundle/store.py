@@ -15,7 +15,8 @@ The pointer is a small text file, not a symlink, so that a store survives git, w
 files and Docker ``COPY`` unchanged on every platform. It moves atomically
 (:func:`set_current`: write a temporary file, fsync, ``os.replace``, fsync the folder), so a
 reader sees the old version or the new one, never a mix; version folders are written
-atomically by :func:`impactnet.models.bundle.format.write_bundle` before the pointer names them.
+atomically by :func:`impactnet.models.bundle.format.write_bundle_data` before the pointer names
+them.
 
 :func:`resolve_bundle` is what readers call: a store resolves to its current version, a plain
 bundle folder (one with ``manifest.json`` and no pointer) to itself, so both keep working

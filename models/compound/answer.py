@@ -7,7 +7,8 @@
 
 Poses broadcast as for :func:`impactnet.models.compound.oracle.compound_contacts` (one pose
 ``(3,)``/``(4,)`` or N poses ``(n, 3)``/``(n, 4)``). Body A's and B's parts are the tuples
-their generators or scene return.
+their generators or scene return. One call of the compiled pipeline answers both the part
+contacts and the summary (:mod:`impactnet.models.compound.pipeline`).
 """
 from __future__ import annotations
 
@@ -15,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from impactnet.models.compound.oracle import PartContacts, compound_contacts
-from impactnet.models.compound.summary import BodySummary, summarise
+from impactnet.models.compound import pipeline
+from impactnet.models.compound.results import BodySummary, PartContacts, made
 from impactnet.models.contacts import CONTACT_TYPES
 
 
@@ -61,7 +62,8 @@ def compound_answer(parts_a, position_a, quaternion_a, parts_b, position_b,
     quaternion_a, quaternion_b : array_like, shape (4,) or (n, 4)
         Orientations (w, x, y, z), normalised here.
     """
-    found = compound_contacts(parts_a, position_a, quaternion_a, parts_b, position_b,
-                              quaternion_b)
-    return CompoundAnswer(found, summarise(found), tuple(p.name for p in parts_a),
-                          tuple(p.name for p in parts_b))
+    set_a, set_b, table_a, table_b = pipeline.sets_of(parts_a, parts_b)
+    rows, n = pipeline.pose_rows(position_a, quaternion_a, position_b, quaternion_b)
+    parts, summary = pipeline.solved(set_a, set_b, rows, n)
+    return made(CompoundAnswer, {"parts": parts, "summary": summary, "names_a": table_a.names,
+                                 "names_b": table_b.names})

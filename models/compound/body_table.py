@@ -60,6 +60,28 @@ class BodyTable:
         size_classes`; a transient body's outside the shared cache)."""
         return size_classes(self.hulls, cached=not self.transient)
 
+    @cached_property
+    def packed(self):
+        """The body as the compiled pipeline reads it (:func:`~impactnet.models.compound.
+        flat_tables.body_set`), built once; it lives with this table (a transient body's too,
+        outside any shared cache)."""
+        from impactnet.models.compound.flat_tables import body_set
+
+        return body_set(self)
+
+    @cached_property
+    def names(self) -> tuple[str, ...]:
+        """The parts' names, in order."""
+        return tuple(p.name for p in self.parts)
+
+    @cached_property
+    def hull_counts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(vertices, faces, edges) counts (P,) of the parts' hulls."""
+        hulls = self.hulls
+        return (np.array([len(h.vertices) for h in hulls], np.int64),
+                np.array([h.n_faces for h in hulls], np.int64),
+                np.array([h.n_edges for h in hulls], np.int64))
+
 
 _CACHE: OrderedDict[int, BodyTable] = OrderedDict()
 _TRANSIENT: OrderedDict[int, BodyTable] = OrderedDict()

@@ -11,9 +11,9 @@ part starts:
    a slice of the poses, on their candidates only. Slices chosen by :func:`pose_slices` keep
    each call's work bounded, so a caller can check its deadline between them.
 
-The answer of a slice is the answer :func:`compound_answer` gives for those poses, within
-round-off (the narrowphase solves each part pair on its own; NumPy's kernels may round a batch
-of another length differently, ~1e-15 m; tested within 1e-12 m).
+Both steps are compiled (:mod:`impactnet.models.compound.kernel_launch`: a count of each pose's
+candidates, then the candidates themselves; the solve of given candidates), so the answer of a
+slice is, bit for bit, the answer :func:`compound_answer` gives for those poses.
 """
 from __future__ import annotations
 
@@ -21,13 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from impactnet.models.compiled import chunks
+from impactnet.models.compound import pipeline
 from impactnet.models.compound.answer import CompoundAnswer
-from impactnet.models.compound.body_table import body_table
-from impactnet.models.compound.broadphase import broadphase
-from impactnet.models.compound.oracle import ORACLE_CHUNK, part_pair_contacts
-from impactnet.models.compound.summary import summarise
-from impactnet.models.geometry.rotations import quaternion_to_matrix, validate_quaternion
-from impactnet.models.work import checkpoint
+from impactnet.models.compound.pipeline import ORACLE_CHUNK
+from impactnet.models.compound.results import made
 
 #: The work of one box part pair in the units of :func:`part_work` (8 vertices x 6 faces
 #: twice, 12 x 12 edge pairs): the unit of :attr:`Candidates.work`.
@@ -37,10 +35,7 @@ BOX_PAIR_WORK = 2 * 8 * 6 + 12 * 12
 def part_work(table) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(vertices, faces, edges) counts (P,) of a body table's part hulls: the sizes the
     separating-axis test's work grows with."""
-    hulls = table.hulls
-    return (np.array([len(h.vertices) for h in hulls], np.int64),
-            np.array([h.n_faces for h in hulls], np.int64),
-            np.array([h.n_edges for h in hulls], np.int64))
+    return table.hull_counts
 
 
 def pair_work(table_a, table_b, i: np.ndarray, j: np.ndarray) -> float:
@@ -82,15 +77,15 @@ class Candidates:
         return len(self.pose)
 
 
-def _poses(position, quaternion, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Positions (n, 3) and unit quaternions (n, 4), broadcast."""
-    position = np.atleast_2d(np.asarray(position, np.float64))
-    quaternion = validate_quaternion(np.atleast_2d(np.asarray(quaternion, np.float64)))
-    return np.broadcast_to(position, (n, 3)), np.broadcast_to(quaternion, (n, 4))
-
-
-def _rows(*arrays) -> int:
-    return max(len(np.atleast_2d(a)) for a in arrays)
+def _checked(counts: np.ndarray, start: int, total: int, max_per_pose, max_total) -> int:
+    """The running total after a block's counts, the caps checked (the per-pose cap first)."""
+    if max_per_pose is not None and counts.sum() > 0 and counts.max() > max_per_pose:
+        first = int(np.argmax(counts > max_per_pose))
+        raise TooManyCandidates(start + first, int(counts[first]), max_per_pose)
+    total += int(counts.sum())
+    if max_total is not None and total > max_total:
+        raise TooManyCandidates(None, total, max_total)
+    return total
 
 
 def candidate_pairs(parts_a, position_a, quaternion_a, parts_b, position_b, quaternion_b,
@@ -108,33 +103,26 @@ def candidate_pairs(parts_a, position_a, quaternion_a, parts_b, position_b, quat
     Raises
     ------
     TooManyCandidates
-        A cap is passed (the block that passes it is the last one computed).
+        A cap is passed (the block that passes it is the last one counted).
     impactnet.models.work.WorkStopped
         The calling context's work limit expired between two blocks.
     """
-    n = _rows(position_a, quaternion_a, position_b, quaternion_b)
-    pos_a, q_a = _poses(position_a, quaternion_a, n)
-    pos_b, q_b = _poses(position_b, quaternion_b, n)
-    table_a, table_b = body_table(parts_a), body_table(parts_b)
-    pieces, total = [], 0
+    set_a, set_b, table_a, table_b = pipeline.sets_of(parts_a, parts_b)
+    rows, n = pipeline.pose_rows(position_a, quaternion_a, position_b, quaternion_b)
     counts = np.zeros(n, np.int64)
+    pieces, total = [], 0
     block = min(ORACLE_CHUNK, max(1, BLOCK_PART_PAIRS // (len(parts_a) * len(parts_b))))
-    for start in range(0, n, block):
-        checkpoint()
-        stop = min(n, start + block)
-        pose, i, j = broadphase(table_a, table_b, pos_b[start:stop] - pos_a[start:stop],
-                                quaternion_to_matrix(q_a[start:stop]),
-                                quaternion_to_matrix(q_b[start:stop]))
-        counts[start:stop] = np.bincount(pose, minlength=stop - start)
-        if max_per_pose is not None and len(pose) and counts[start:stop].max() > max_per_pose:
-            first = start + int(np.argmax(counts[start:stop] > max_per_pose))
-            raise TooManyCandidates(first, int(counts[first]), max_per_pose)
-        total += len(pose)
-        if max_total is not None and total > max_total:
-            raise TooManyCandidates(None, total, max_total)
-        pieces.append((pose + start, i, j))
-    pose, i, j = (np.concatenate(c).astype(np.int64) for c in zip(*pieces)) if pieces else (
-        np.zeros(0, np.int64),) * 3
+    for start, stop in chunks(n, block):
+        sub = pipeline.sliced(rows, start, stop)
+        found = pipeline.counted(set_a, set_b, sub, stop - start)
+        total = _checked(found, start, total, max_per_pose, max_total)
+        counts[start:stop] = found
+        offsets = np.zeros(stop - start + 1, np.int64)
+        np.cumsum(found, out=offsets[1:])
+        pieces.append((np.repeat(np.arange(start, stop), found),
+                       *pipeline.filled(set_a, set_b, sub, stop - start, offsets)))
+    pose, i, j = ((np.concatenate(c).astype(np.int64) for c in zip(*pieces)) if pieces else
+                  (np.zeros(0, np.int64),) * 3)
     return Candidates(pose, i, j, counts, pair_work(table_a, table_b, i, j))
 
 
@@ -156,14 +144,15 @@ def pose_slices(counts: np.ndarray, max_candidates: int,
 def answer_of_poses(parts_a, position_a, quaternion_a, parts_b, position_b, quaternion_b,
                     found: Candidates, start: int, stop: int) -> CompoundAnswer:
     """The answer of poses ``start:stop`` (their rows 0..stop-start) from their candidates in
-    ``found``: :func:`compound_answer`'s answer for those poses (within round-off)."""
-    n = _rows(position_a, quaternion_a, position_b, quaternion_b)
-    pos_a, q_a = _poses(position_a, quaternion_a, n)
-    pos_b, q_b = _poses(position_b, quaternion_b, n)
+    ``found``: :func:`compound_answer`'s answer for those poses, bit for bit."""
+    set_a, set_b, table_a, table_b = pipeline.sets_of(parts_a, parts_b)
+    rows, _ = pipeline.pose_rows(position_a, quaternion_a, position_b, quaternion_b)
     first, last = np.searchsorted(found.pose, [start, stop])
-    parts = part_pair_contacts(parts_a, pos_a[start:stop], q_a[start:stop], parts_b,
-                               pos_b[start:stop], q_b[start:stop],
-                               found.pose[first:last] - start, found.part_a[first:last],
-                               found.part_b[first:last])
-    return CompoundAnswer(parts, summarise(parts), tuple(p.name for p in parts_a),
-                          tuple(p.name for p in parts_b))
+    offsets = np.zeros(stop - start + 1, np.int64)
+    np.cumsum(found.counts[start:stop], out=offsets[1:])
+    given = (offsets, np.ascontiguousarray(found.part_a[first:last], np.int64),
+             np.ascontiguousarray(found.part_b[first:last], np.int64))
+    parts, summary = pipeline.solved_given(set_a, set_b, pipeline.sliced(rows, start, stop),
+                                           stop - start, given)
+    return made(CompoundAnswer, {"parts": parts, "summary": summary, "names_a": table_a.names,
+                                 "names_b": table_b.names})

@@ -31,7 +31,7 @@ reference plane is ``d = h - n . x``, the pressure ``p = d + tau`` with the box 
   the polygon where it has more), on the mid-surface.
 
 Each clip, integral and sum is the NumPy solver's expression in its order (the vectorised
-clip of :mod:`impactnet.models.compound.polygon_clip`, one polygon at a time), so the answers
+clip the NumPy solver ran on every polygon at once, here one polygon at a time), so the answers
 keep their bits.
 """
 from __future__ import annotations
@@ -43,7 +43,7 @@ import numpy as np
 
 from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL, REGION_DEPTH_TOL_REL, SNAP_TOL_REL
 from impactnet.models.compiled import jit
-from impactnet.models.compound.convex_sat import maximum
+from impactnet.models.compound.sat_faces import maximum
 from impactnet.models.contacts import MAX_MANIFOLD_POINTS
 
 #: A side plane (unit normal in the face's plane) whose value at the polygon's bounding

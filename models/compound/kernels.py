@@ -4,6 +4,12 @@ of kernels, so that their warm-ups register (:func:`impactnet.models.compiled.wa
 
 * :mod:`impactnet.models.compound.convex_contact`: the convex part solver (separating-axis
   test of :mod:`~impactnet.models.compound.convex_sat`, face contact of
-  :mod:`~impactnet.models.compound.convex_face`), one warm-up for all three.
+  :mod:`~impactnet.models.compound.convex_face`), one warm-up for all three;
+* :mod:`impactnet.models.compound.warm`: the compiled oracle (broadphase, narrowphase,
+  covered-surface filter and summary of :mod:`~impactnet.models.compound.kernel_pipeline`,
+  launched by :mod:`~impactnet.models.compound.pipeline`): every entry, serial and parallel.
 """
-from impactnet.models.compound import convex_contact  # noqa: F401 - registers its warm-up
+from impactnet.models.compound import (
+    convex_contact,  # noqa: F401 - registers its warm-up
+    warm,  # noqa: F401 - registers its warm-up
+)

@@ -35,11 +35,11 @@
     mesh = "lid.stl"              # STL/OBJ/GLB in the scene file's folder: its convex hull
 
 The generated shapes' parameters are documented in :mod:`impactnet.models.compound.shapes`
-(``centre`` defaults to the origin; ``tip_scale`` to 1, ``high`` to ``"-x"``, ``low_height``
-to 0, ``axis`` to ``"z"``). Every part goes through
-:func:`impactnet.models.compound.parts.validate_parts` (domain, flat hulls, a part inside a box
-part) and :func:`check_not_inside_convex` (a part inside a convex part); their errors come back
-as :class:`SceneError` naming the field (``bodies.stop.parts[2].mesh: ...``).
+(``centre`` defaults to the origin; ``tip_scale`` to 1, ``high`` to ``"-x"``, ``low_height`` to 0,
+``axis`` to ``"z"``). Every part goes through :func:`impactnet.models.compound.parts.validate_parts`
+(domain, flat hulls, a part inside a box part) and :func:`check_not_inside_convex` (a part inside a
+convex part); their errors come back as :class:`SceneError` naming the field
+(``bodies.stop.parts[2].mesh: ...``).
 
 Parts given by a client (the HTTP API) come with :class:`~impactnet.models.compound.part_limits.
 PartLimits`: their counts are checked on the tables before any shape is built, and a mesh must

@@ -15,7 +15,9 @@ A separated pair's ``normal`` is the separating direction of its closest part pa
 zero; a box pair's: the separating axis of largest separation), its ``point`` the midpoint
 between them. ``distance`` is ``-depth`` for a pair in contact, the gap (> 0) for a pair
 apart by less than the request's margin, and infinite beyond it; within the margin ``point``
-is the closest region's centroid (the midpoint of the closest points where they are unique).
+is the closest region's centroid (the midpoint of the closest points where they are unique),
+``closest_a`` / ``closest_b`` the centroids of the closest regions on A and on B (NaN beyond
+the margin and in contact), and ``part_a`` / ``part_b`` the closest part pair.
 """
 from __future__ import annotations
 
@@ -41,7 +43,8 @@ BODY_COLUMNS = (("colliding", np.bool_, (), False), ("point", np.float64, (3,), 
                 ("contact_type", np.int8, (), 0), ("feature_a", np.int32, (), -1),
                 ("feature_b", np.int32, (), -1), ("part_a", np.int32, (), -1),
                 ("part_b", np.int32, (), -1), ("cluster_size", np.int64, (), 0),
-                ("confidence", np.float64, (), 1.0), ("distance", np.float64, (), np.inf))
+                ("confidence", np.float64, (), 1.0), ("distance", np.float64, (), np.inf),
+                ("closest_a", np.float64, (3,), np.nan), ("closest_b", np.float64, (3,), np.nan))
 #: Contact types by code.
 CONTACT_NAMES = np.asarray(CONTACT_TYPES)
 
@@ -57,9 +60,24 @@ class Answers:
     contacts: dict  # name -> (m, ...) array, CONTACT_COLUMNS (+ MANIFOLD_COLUMNS if asked)
     part_names: np.ndarray  # (q,) str: the names of part codes
     shapes: tuple  # the shape (a Shape) of each part code's body, for feature names
+    part_index: np.ndarray  # (q,) int64: each part code's index among its shape's parts
 
     def __len__(self) -> int:
         return len(self.predictor)
+
+    def take(self, rows: np.ndarray) -> Answers:
+        """The answers of ``rows`` (k,) (sorted, distinct), their part contacts with them."""
+        rows = np.asarray(rows, np.int64)
+        counts = (self.offsets[1:] - self.offsets[:-1])[rows]
+        offsets = np.zeros(len(rows) + 1, np.int64)
+        np.cumsum(counts, out=offsets[1:])
+        # the part contacts of the kept rows: each row's run, in order
+        starts = np.repeat(self.offsets[rows] - offsets[:-1], counts)
+        picked = starts + np.arange(offsets[-1])
+        return Answers({k: v[rows] for k, v in self.body.items()}, self.predictor[rows],
+                       self.predictor_names, offsets,
+                       {k: v[picked] for k, v in self.contacts.items()}, self.part_names,
+                       self.shapes, self.part_index)
 
     def predictor_of(self, i: int) -> str:
         return str(self.predictor_names[self.predictor[i]])
@@ -76,6 +94,7 @@ class Pieces:
         self.predictor_names: list[str] = ["exact"]
         self.part_names: list[str] = []
         self.shapes: list = []
+        self.part_index: list[int] = []
         self._codes: dict[int, np.ndarray] = {}
         self.rows: list[np.ndarray] = []
         self.columns: list[dict] = []
@@ -88,6 +107,7 @@ class Pieces:
             start = len(self.part_names)
             self.part_names += list(shape.part_names)
             self.shapes += [shape] * len(shape.part_names)
+            self.part_index += list(range(len(shape.part_names)))
             self._codes[key] = np.arange(start, start + len(shape.part_names), dtype=np.int32)
         return self._codes[key]
 
@@ -128,4 +148,5 @@ class Pieces:
         np.cumsum(np.bincount(row, minlength=self.n), out=offsets[1:])
         self.rows, self.columns = [], []
         return Answers(self.body, self.predictor, np.asarray(self.predictor_names), offsets,
-                       contacts, np.asarray(self.part_names, dtype=str), tuple(self.shapes))
+                       contacts, np.asarray(self.part_names, dtype=str), tuple(self.shapes),
+                       np.asarray(self.part_index, np.int64))

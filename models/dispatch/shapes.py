@@ -49,12 +49,18 @@ class Shape:
         return tuple(p.name for p in self.parts)
 
     @cached_property
-    def sphere(self) -> tuple[np.ndarray, float]:
-        """(centre (3,) in the body frame, radius): a sphere around every part."""
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(centre (3,), half extents (3,)) of the box around every part, body frame, m."""
         table = body_table(self.parts)
         lo = (table.centre - 0.5 * table.size).min(axis=0)
         hi = (table.centre + 0.5 * table.size).max(axis=0)
-        return 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+        return 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+    @cached_property
+    def sphere(self) -> tuple[np.ndarray, float]:
+        """(centre (3,) in the body frame, radius): a sphere around every part."""
+        centre, half = self.bounds
+        return centre, float(np.linalg.norm(half))
 
     def feature(self, part: int, feature: int) -> tuple[str, str]:
         """(name, kind) of a feature id of part ``part``: kind face, edge, vertex or none."""
@@ -97,3 +103,11 @@ class Pairs:
         """(position_a, quaternion_a, position_b, quaternion_b) of ``rows``."""
         return tuple(self.column(c)[rows] for c in ("position_a", "quaternion_a",
                                                      "position_b", "quaternion_b"))
+
+
+def scene_shapes(scene) -> dict[str, Shape]:
+    """The shape of every body of a :class:`~impactnet.models.scenes.Scene`, by name (a box
+    body a box, a compound body its parts)."""
+    bodies = scene.bodies.values() if isinstance(scene.bodies, dict) else scene.bodies
+    return {str(b.name): Shape(b.parts, str(b.name)) if b.parts is not None
+            else Shape.box(b.size, str(b.name), transient=False) for b in bodies}

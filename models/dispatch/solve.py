@@ -29,6 +29,7 @@ from impactnet.models.dispatch import plan as plans
 from impactnet.models.dispatch.answers import Answers, Pieces
 from impactnet.models.dispatch.shapes import Pairs
 from impactnet.models.distance.bodies import body_gaps, hull_gaps
+from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.work import checkpoint
 
 #: Predictor name of the compound oracle's rows.
@@ -83,7 +84,8 @@ class Dispatcher:
                 _compound_slice(pieces, group, start, stop, plan.mode, caps)
             _gaps(pieces, group, ~pieces.body["colliding"][group.rows], plan.margin)
         for group in plan.apart:
-            pieces.add(group.rows, {}, ORACLE, np.zeros(0, np.int64), _no_contacts())
+            pieces.add(group.rows, {}, ORACLE, np.zeros(0, np.int64),
+                       _no_contacts(pieces.manifold))
             _gaps(pieces, group, np.ones(len(group.rows), bool), plan.margin)
         return pieces.merged()
 
@@ -119,17 +121,28 @@ def _contact_columns(c, rows, code_a, code_b, manifold: bool) -> dict:
     return out
 
 
+def _box_codes(pieces: Pieces, shapes) -> np.ndarray:
+    """The part code of each box shape (a box is a body of one part; -1 for the others)."""
+    return np.array([pieces.codes_of(s)[0] if s.is_box else -1 for s in shapes], np.int32)
+
+
 def _box_rows(pieces: Pieces, plan: plans.Plan, predictor, caps: plans.Caps) -> None:
     """The box rows through the box chain, in chunks (one contact per touching pair)."""
     pairs, rows = plan.pairs, plan.box_rows
     shapes = pairs.shapes
     sizes = np.array([s.size if s.is_box else (1.0, 1.0, 1.0) for s in shapes])
-    code = np.array([pieces.codes_of(s)[0] if s.is_box else -1 for s in shapes], np.int32)
+    code = _box_codes(pieces, shapes)
     index_a, index_b = pairs.column("shape_a"), pairs.column("shape_b")
+    unsupported: list[np.ndarray] = []
     for start, stop in chunks(len(rows), CHUNK_ROWS):
         at = rows[start:stop]
         p_a, q_a, p_b, q_b = pairs.poses(at)
-        c = predictor(sizes[index_a[at]], p_a, q_a, sizes[index_b[at]], p_b, q_b)
+        try:
+            c = predictor(sizes[index_a[at]], p_a, q_a, sizes[index_b[at]], p_b, q_b)
+        except UnsupportedPairError as exc:  # go on: the error names every such row
+            unsupported.append(at[np.asarray(exc.rows, np.int64)])
+            missing = exc
+            continue
         hit = np.flatnonzero(c.colliding)
         _check_contacts(np.zeros(0), at, pieces.contacts + len(hit), caps)
         parts_a = np.where(c.colliding, code[index_a[at]], -1)
@@ -142,6 +155,8 @@ def _box_rows(pieces: Pieces, plan: plans.Plan, predictor, caps: plans.Caps) -> 
                 "distance": np.where(c.colliding, -c.depth, np.inf)}
         pieces.add(at, body, c.predictor, at[hit],
                    _contact_columns(c, hit, parts_a[hit], parts_b[hit], pieces.manifold))
+    if unsupported:  # a strict learned mode without a model for these box sizes
+        raise UnsupportedPairError(np.concatenate(unsupported), missing.pairs, plan.mode)
 
 
 def _deepest(parts, n: int) -> np.ndarray:
@@ -191,11 +206,12 @@ def _compound_slice(pieces: Pieces, group: plans.Group, start: int, stop: int, m
                                 pieces.manifold))
 
 
-def _no_contacts() -> dict:
-    """The part-contact columns of a slice without contacts."""
-    from impactnet.models.dispatch.answers import CONTACT_COLUMNS
+def _no_contacts(manifold: bool) -> dict:
+    """The part-contact columns of a slice without contacts (the manifold's where asked)."""
+    from impactnet.models.dispatch.answers import CONTACT_COLUMNS, MANIFOLD_COLUMNS
 
-    return {name: np.zeros((0, *shape), dtype) for name, dtype, shape in CONTACT_COLUMNS}
+    wanted = CONTACT_COLUMNS + (MANIFOLD_COLUMNS if manifold else ())
+    return {name: np.zeros((0, *shape), dtype) for name, dtype, shape in wanted}
 
 
 def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) -> None:
@@ -212,6 +228,11 @@ def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) 
     pieces.body["normal"][rows] = gaps.direction
     pieces.body["point"][rows] = gaps.point
     pieces.body["distance"][rows] = np.where(within, gaps.distance, np.inf)
+    near = rows[within]
+    pieces.body["closest_a"][near] = gaps.point_a[within]
+    pieces.body["closest_b"][near] = gaps.point_b[within]
+    pieces.body["part_a"][near] = pieces.codes_of(group.shape_a)[gaps.part_a[within]]
+    pieces.body["part_b"][near] = pieces.codes_of(group.shape_b)[gaps.part_b[within]]
 
 
 def _box_gaps(pieces: Pieces, plan: plans.Plan) -> None:
@@ -230,5 +251,11 @@ def _box_gaps(pieces: Pieces, plan: plans.Plan) -> None:
              for side in "ab"]
     gaps = hull_gaps([hulls[k] for k in used], *index, *plan.pairs.poses(rows))
     within = gaps.distance <= plan.margin
-    pieces.body["distance"][rows[within]] = gaps.distance[within]
-    pieces.body["point"][rows[within]] = gaps.point[within]
+    near = rows[within]
+    pieces.body["distance"][near] = gaps.distance[within]
+    pieces.body["point"][near] = gaps.point[within]
+    pieces.body["closest_a"][near] = gaps.point_a[within]
+    pieces.body["closest_b"][near] = gaps.point_b[within]
+    code = _box_codes(pieces, plan.pairs.shapes)
+    for side in "ab":
+        pieces.body[f"part_{side}"][near] = code[plan.pairs.column(f"shape_{side}")[near]]

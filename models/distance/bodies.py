@@ -1,17 +1,21 @@
 """The gap between two bodies made of parts: the smallest gap over their part pairs, with the
 closest part pair, compiled (issue #34; a separated pair's normal, issue #33).
 
-Per row (one pose of two bodies), by branch and bound: every part pair's lower bound is the
-distance between A's part's bounds and B's part's bounds as seen in A's frame (B's box of
-bounds turned into A's frame and bounded again: a box that holds the part); the pairs are
-visited in increasing bound, each
-solved exactly (:func:`~impactnet.models.distance.kernels.gap_row`), until the next bound is
-no smaller than the best gap found, or than the ``limit`` the caller cares about (a frame's
-margin: pairs farther apart need no answer). A box is a body of one part.
+Per row (one pose of two bodies), by branch and bound: every part pair's lower bound is the distance
+between A's part's bounds and B's part's bounds as seen in A's frame (B's box of bounds turned into
+A's frame and bounded again: a box that holds the part); the pairs are visited in increasing bound,
+each solved exactly (:func:`~impactnet.models.distance.kernels.gap_row`), until the next bound is no
+smaller than the best gap found, or than the ``limit`` the caller cares about (a frame's margin:
+pairs farther apart need no answer). A box is a body of one part.
 
 Answers in the world frame: the gap (m; 0 touching or overlapping), the closest points on A
 and B and their midpoint (the closest region's centroid where it is not unique), the unit
-direction from A towards B, and the closest part pair (-1, -1 beyond the limit).
+direction from A towards B, and the closest part pair (-1, -1 beyond the limit). Where other
+part pairs are as close as the closest one (within the support slack of the distance query,
+:data:`~impactnet.models.distance.tolerances.SUPPORT_REL` x the largest part's half extent:
+ties of rounding, such as the four twistlocks of a level spreader over a container), the
+closest points are the mean of every tied pair's, so that the point is the closest region's
+centroid at the body level too and meets the centre of pressure as the gap closes.
 """
 from __future__ import annotations
 
@@ -23,6 +27,7 @@ import numpy as np
 from impactnet.models import compiled
 from impactnet.models.distance.kernels import gap_row, scratch_slots
 from impactnet.models.distance.tables import tables_of_hulls
+from impactnet.models.distance.tolerances import SUPPORT_REL
 from impactnet.models.geometry.rotations import quaternion_to_matrix
 
 #: Part pairs a row may hold in its bounds buffer (bodies of more parts are refused earlier:
@@ -78,7 +83,8 @@ def _lower_bound(centre, half, i, j, t, r):
 
 
 @compiled.jit
-def _row(tables, centre, half, parts_a, t, r, limit, work, bounds, order_buf, one, out, row):
+def _row(tables, centre, half, parts_a, t, r, limit, tie, work, bounds, order_buf, one, out,
+         row):
     """One pose (module docstring): the gap written at ``row`` of ``out`` (A's frame)."""
     vertices, start, size = tables
     n_hulls = size.shape[0]
@@ -106,18 +112,52 @@ def _row(tables, centre, half, parts_a, t, r, limit, work, bounds, order_buf, on
                 point[row, c], direction[row, c] = one[3][0, c], one[4][0, c]
             if best <= 0.0:
                 break
+    if 0.0 < best < limit:
+        _ties(tables, parts_a, t, r, tie, work, bounds, order_buf, order, k, one, out, row)
 
 
 @compiled.jit
-def _rows(tables, centre, half, parts_a, t, r, limit, out):
+def _ties(tables, parts_a, t, r, tie, work, bounds, order_buf, order, k, one, out, row):
+    """The closest region of a row whose closest part pair is not alone: every other part
+    pair within ``tie`` (m) of the smallest gap adds its closest regions' centroids, and the
+    row's closest points are their mean (a level spreader over a container: its four heads)."""
+    vertices, start, size = tables
+    n_hulls = size.shape[0]
+    distance, point_a, point_b, point, direction, part_a, part_b = out
+    best, count = distance[row], 1
+    sums = np.empty((3, 3))
+    for c in range(3):
+        sums[0, c], sums[1, c], sums[2, c] = point_a[row, c], point_b[row, c], point[row, c]
+    for m in range(k):
+        pair = order_buf[order[m]]
+        if bounds[order[m]] > best + tie:
+            break
+        i, j = pair // n_hulls, pair % n_hulls
+        if i == part_a[row] and j - parts_a == part_b[row]:
+            continue
+        gap_row(vertices, start, size, i, j, t, r, work, 0, *one)
+        if one[0][0] <= best + tie:
+            count += 1
+            for c in range(3):
+                sums[0, c] += one[1][0, c]
+                sums[1, c] += one[2][0, c]
+                sums[2, c] += one[3][0, c]
+    if count > 1:
+        for c in range(3):
+            point_a[row, c], point_b[row, c] = sums[0, c] / count, sums[1, c] / count
+            point[row, c] = sums[2, c] / count
+
+
+@compiled.jit
+def _rows(tables, centre, half, parts_a, t, r, limit, tie, out):
     """:func:`_row` over every pose (serial)."""
     work = np.empty(scratch_slots(int(np.max(np.diff(tables[1])))))
     pairs = parts_a * (tables[2].shape[0] - parts_a)
     bounds, order_buf = np.empty(pairs), np.empty(pairs, np.int64)
     one = (np.empty(1), np.empty((1, 3)), np.empty((1, 3)), np.empty((1, 3)), np.empty((1, 3)))
     for row in range(t.shape[0]):
-        _row(tables, centre, half, parts_a, t[row], r[row], limit, work, bounds, order_buf,
-             one, out, row)
+        _row(tables, centre, half, parts_a, t[row], r[row], limit, tie, work, bounds,
+             order_buf, one, out, row)
 
 
 def body_gaps(table_a, table_b, position_a, quaternion_a, position_b, quaternion_b,
@@ -136,7 +176,7 @@ def body_gaps(table_a, table_b, position_a, quaternion_a, position_b, quaternion
     flat = (tables.vertices, tables.vertex_start, tables.hull_size)
     for lo, hi in compiled.chunks(n):
         _rows(flat, centre, half, parts_a, t[lo:hi], r[lo:hi], float(limit),
-              tuple(o[lo:hi] for o in out))
+              SUPPORT_REL * float(half.max()), tuple(o[lo:hi] for o in out))
     return _world(position_a, rot_a, *out)
 
 

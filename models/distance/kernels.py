@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from impactnet.models.compiled import PARALLEL_MIN_ROWS, jit, numba, on_warm_up, parallel_jit
+from impactnet.models.compiled import jit, numba, parallel_jit
 from impactnet.models.distance.gjk import GJK_SLOTS, LAM, PA, PB, SEPARATED, gjk
 from impactnet.models.distance.region import hull2d, plane_basis, region_centroid, region_slots
 from impactnet.models.distance.tolerances import (
@@ -295,14 +295,3 @@ def gap_rows_parallel(tables, hulls, poses, start, stop, outs):
         first = start + block * BLOCK_ROWS
         for i in range(first, min(stop, first + BLOCK_ROWS)):
             _one_pose(tables, hulls, poses, i, work, t, r, outs)
-
-
-@on_warm_up
-def warm_up() -> None:
-    """Compile (or load) the kernels on a box over a box, serial and parallel."""
-    from impactnet.models.distance.query import polytope_gaps
-
-    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    for rows in (1, PARALLEL_MIN_ROWS):
-        polytope_gaps(corners, corners, np.zeros((rows, 3)), np.eye(3),
-                      np.array([0.0, 0.0, 3.0]), np.eye(3))

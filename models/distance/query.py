@@ -140,3 +140,12 @@ def polytope_gaps(vertices_a, vertices_b, position_a, rotation_a, position_b,
     b = np.ascontiguousarray(vertices_b, np.float64)
     pair = _pair(a.tobytes(), a.shape, b.tobytes(), b.shape)
     return pair.gaps(position_a, rotation_a, position_b, rotation_b)
+
+
+@compiled.on_warm_up
+def warm_up() -> None:
+    """Compile (or load) the kernels on a box over a box, serial and parallel."""
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    for rows in (1, compiled.PARALLEL_MIN_ROWS):
+        polytope_gaps(corners, corners, np.zeros((rows, 3)), np.eye(3),
+                      np.array([0.0, 0.0, 3.0]), np.eye(3))

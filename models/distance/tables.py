@@ -54,8 +54,8 @@ def tables_of_hulls(hulls: list[Hull] | tuple[Hull, ...]) -> HullTables:
 
 
 def hull_tables(vertex_arrays) -> HullTables:
-    """The tables of the hulls of ``vertex_arrays``: a list of (k_h, 3) arrays, metres, body
-    frames (a box: its 8 corners). Raises
-    :class:`~impactnet.models.compound.parts.PartError` for points that span no volume."""
+    """The tables of the hulls of ``vertex_arrays``: a list of (k_h, 3) arrays, metres, body frames
+    (a box: its 8 corners). Raises :class:`~impactnet.models.compound.parts.PartError` for points
+    that span no volume."""
     return tables_of_hulls([convex_hull(np.asarray(v, np.float64), f"polytope {k}")
                             for k, v in enumerate(vertex_arrays)])

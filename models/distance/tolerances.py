@@ -49,8 +49,7 @@ DIRECTION_NOISE = 8.0 * float(np.finfo(np.float64).eps)
 #: the closest direction of an edge or vertex feature is noise and the region is what the
 #: slack makes it (the distance stays exact).
 SUPPORT_CAP_REL = 1e-3
-#: An intersection polygon whose area is below this many times the plane slack x its diameter
-#: (m^2) is
-#: a segment (two regions meeting along an edge): its midpoint answers, not its area centroid,
+#: An intersection polygon whose area is below this many times the plane slack x its diameter (m^2)
+#: is a segment (two regions meeting along an edge): its midpoint answers, not its area centroid,
 #: whose formula would divide rounding by a vanishing area.
 THIN_AREA_FACTOR = 4.0

@@ -1,21 +1,26 @@
 """The broadphase over bodies: which pairs of N bodies may touch or lie within a margin,
-compiled (sweep and prune), n log n plus the pairs it finds.
+compiled (sweep and prune).
 
-Stages, all in one kernel call:
+Stages (two kernels and a NumPy sort):
 
 1. **World bounds**: each body's bounds are an oriented box (its envelope in its own frame,
    centre ``c`` and half extents ``h``, placed by its pose); its axis-aligned world bounds are
    ``p + R c +- |R| h``, grown by half the margin on every side, so that two bodies within the
    margin of each other have overlapping bounds.
 2. **Sweep**: the bounds are sorted by their low end along the world axis on which the bodies'
-   centres spread most; walking that order, a body is tested against the ones after it until
-   their low end passes its high end (the only ones whose intervals can overlap on that axis),
-   then on the two other axes.
+   centres spread most; walking that order, each body is tested against the ones after it
+   until their low end passes its high end (the only ones whose intervals can overlap on that
+   axis), then on the two other axes; a static body only against the moving ones.
 3. **Filter**: a pair is kept when ``(type_a & affinity_b) | (type_b & affinity_a)`` is not zero
    (MuJoCo's contype / conaffinity rule; every body 1/1 by default) and the two are not both
    static (two bodies of the registered world never touch anything new).
 
-The pairs come back as ``(k, 2)`` indices, each with the lower index first, sorted.
+The cost is the sort (n log n) and the walks: the pairs of moving bodies whose bounds overlap
+on the sweep axis, which is more than the pairs found where many bodies share an interval of
+that axis (a yard of many rows and columns, swept along its columns: the walk grows as
+n^1.5 there; docs/benchmarks/frame.md), and only the moving bodies' neighbourhoods when the
+frame has a static world. The pairs come back as ``(k, 2)`` indices, each with the lower
+index first, sorted.
 """
 from __future__ import annotations
 
@@ -26,7 +31,7 @@ from impactnet.models import compiled
 #: Added to the bounds' half extents (x their size, dimensionless) so that a pair touching
 #: within round-off is never culled (the narrowphase decides it).
 BOUNDS_SLACK_REL = 1e-9
-#: Pairs a sweep can hold before it is run again with more room (grown x4 each time).
+#: Pairs the sweep has room for at first (the room doubles as they come).
 INITIAL_PAIRS = 4096
 
 
@@ -77,41 +82,100 @@ def _sweep_axis(lo, hi):
     return axis
 
 
+class TooManyBodyPairs(ValueError):
+    """The bodies' bounds overlap in more than ``cap`` pairs (``count`` found before the stop)."""
+
+    def __init__(self, count: int, cap: int) -> None:
+        self.count, self.cap = count, cap
+        super().__init__(f"more than {cap} pairs of bodies may touch ({count} found before "
+                         f"the sweep stopped)")
+
+
 @compiled.jit
-def sweep(lo, hi, types, affinities, static, out):
-    """Stages 2-3: the pairs whose bounds overlap and whose filter lets them touch, written
-    into ``out`` (capacity (m, 2)); returns how many there are (more than ``m``: run again
-    with more room)."""
-    axis = _sweep_axis(lo, hi)
-    order = np.argsort(lo[:, axis], kind="mergesort")
-    count = 0
+def _grown(out, count):
+    """``out`` (m, 2) with twice the room, its first ``count`` rows kept."""
+    bigger = np.empty((2 * out.shape[0], 2), np.int64)
+    bigger[:count] = out[:count]
+    return bigger
+
+
+@compiled.jit
+def _gathered(lo, hi, order, axis, types, affinities, static):
+    """The bounds and filters in sweep order: ``start``, ``end`` (n,) on the sweep axis,
+    ``box_lo``, ``box_hi`` (n, 3), ``kind``, ``affinity``, ``fixed`` (n,)."""
     n = lo.shape[0]
+    start, end = np.empty(n), np.empty(n)
+    box_lo, box_hi = np.empty((n, 3)), np.empty((n, 3))
+    kind, affinity = np.empty(n, np.int64), np.empty(n, np.int64)
+    fixed = np.empty(n, np.bool_)
     for k in range(n):
         i = order[k]
+        start[k], end[k] = lo[i, axis], hi[i, axis]
+        kind[k], affinity[k], fixed[k] = types[i], affinities[i], static[i]
+        for r in range(3):
+            box_lo[k, r], box_hi[k, r] = lo[i, r], hi[i, r]
+    return start, end, box_lo, box_hi, kind, affinity, fixed
+
+
+@compiled.jit
+def sweep(lo, hi, order, axis, types, affinities, static, limit, room):
+    """Stages 2-3: the pairs whose bounds overlap and whose filter lets them touch, as
+    ``(pairs (k, 2), k)``, stopping as soon as there are more than ``limit`` (then ``k`` is
+    ``limit + 1``). ``order`` (n,): the bodies by the low end of their bounds on ``axis``
+    (sorted by NumPy, several times faster than numba's sort); ``room``: the pairs there is
+    room for at first (>= 1), doubled as they come (one pass, whatever their number).
+
+    Each body walks forward from its place in that order until the low ends pass its high
+    end: a body that moved over every body after it, a static one over the moving bodies
+    after it only (from a binary search among them), since two static bodies never pair.
+    Without a static world that is the plain sweep; with one, the walks are the moving bodies'
+    neighbourhoods, not the world's. The bounds are gathered in sweep order first, so that the
+    walks read memory in order. (The two walks share their test, written out in each: a call
+    per candidate costs more than the test.)"""
+    start, end, box_lo, box_hi, kind, affinity, fixed = _gathered(lo, hi, order, axis, types,
+                                                                  affinities, static)
+    n = start.shape[0]
+    moving = np.flatnonzero(~fixed)  # sweep positions of the bodies that moved
+    out = np.empty((room, 2), np.int64)
+    count = 0
+    for k in moving:  # a moving body: every body after it
         for m in range(k + 1, n):
-            j = order[m]
-            if lo[j, axis] > hi[i, axis]:
+            if start[m] > end[k]:
                 break
-            if static[i] and static[j]:
+            if (kind[k] & affinity[m]) == 0 and (kind[m] & affinity[k]) == 0:
                 continue
-            if (types[i] & affinities[j]) == 0 and (types[j] & affinities[i]) == 0:
+            if (box_lo[m, 0] > box_hi[k, 0] or box_lo[k, 0] > box_hi[m, 0]
+                    or box_lo[m, 1] > box_hi[k, 1] or box_lo[k, 1] > box_hi[m, 1]
+                    or box_lo[m, 2] > box_hi[k, 2] or box_lo[k, 2] > box_hi[m, 2]):
                 continue
-            apart = False
-            for r in range(3):
-                if lo[j, r] > hi[i, r] or lo[i, r] > hi[j, r]:
-                    apart = True
-                    break
-            if apart:
-                continue
-            if count < out.shape[0]:
-                out[count, 0] = min(i, j)
-                out[count, 1] = max(i, j)
+            if count == out.shape[0]:
+                out = _grown(out, count)
+            out[count, 0], out[count, 1] = min(order[k], order[m]), max(order[k], order[m])
             count += 1
-    return count
+            if count > limit:
+                return out[:count], count
+    for k in np.flatnonzero(fixed):  # a static body: the moving bodies after it
+        for q in range(np.searchsorted(moving, k + 1), moving.shape[0]):
+            m = moving[q]
+            if start[m] > end[k]:
+                break
+            if (kind[k] & affinity[m]) == 0 and (kind[m] & affinity[k]) == 0:
+                continue
+            if (box_lo[m, 0] > box_hi[k, 0] or box_lo[k, 0] > box_hi[m, 0]
+                    or box_lo[m, 1] > box_hi[k, 1] or box_lo[k, 1] > box_hi[m, 1]
+                    or box_lo[m, 2] > box_hi[k, 2] or box_lo[k, 2] > box_hi[m, 2]):
+                continue
+            if count == out.shape[0]:
+                out = _grown(out, count)
+            out[count, 0], out[count, 1] = min(order[k], order[m]), max(order[k], order[m])
+            count += 1
+            if count > limit:
+                return out[:count], count
+    return out[:count], count
 
 
 def body_pairs(centre, half, position, rotation, margin=0.0, types=None, affinities=None,
-               static=None) -> np.ndarray:
+               static=None, max_pairs: int | None = None) -> np.ndarray:
     """The pairs of bodies that may touch or lie within ``margin`` (module docstring).
 
     Parameters
@@ -127,6 +191,8 @@ def body_pairs(centre, half, position, rotation, margin=0.0, types=None, affinit
         Bit masks of the filter (default 1 each: every pair).
     static : array_like of bool, shape (n,), optional
         Bodies of a registered static world (default none).
+    max_pairs : int, optional
+        Raise :class:`TooManyBodyPairs` past this many pairs (the sweep stops there).
 
     Returns
     -------
@@ -142,13 +208,15 @@ def body_pairs(centre, half, position, rotation, margin=0.0, types=None, affinit
     lo, hi = np.empty((n, 3)), np.empty((n, 3))
     world_bounds(np.ascontiguousarray(centre, np.float64), np.ascontiguousarray(half, np.float64),
                  position, np.ascontiguousarray(rotation, np.float64), float(margin), lo, hi)
-    out = np.empty((INITIAL_PAIRS, 2), np.int64)
-    count = sweep(lo, hi, types, affinities, static, out)
-    while count > len(out):
-        out = np.empty((4 * count, 2), np.int64)
-        count = sweep(lo, hi, types, affinities, static, out)
-    pairs = out[:count]
-    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+    limit = np.iinfo(np.int64).max if max_pairs is None else int(max_pairs)
+    room = max(1, min(INITIAL_PAIRS, limit + 1))
+    axis = _sweep_axis(lo, hi)
+    order = np.argsort(lo[:, axis], kind="stable")
+    pairs, count = sweep(lo, hi, order, axis, types, affinities, static, limit, room)
+    if count > limit:
+        raise TooManyBodyPairs(count, limit)
+    key = np.sort(pairs[:, 0] * max(n, 1) + pairs[:, 1])  # (lower, higher) in order
+    return np.stack([key // max(n, 1), key % max(n, 1)], axis=1)
 
 
 @compiled.on_warm_up

@@ -19,9 +19,9 @@ Stages, as training and inference both apply them:
    the canonical features (A's mapped by S, B's by T; sign flips are involutions, so the same
    tables map them back), ``"none"`` for separated pairs.
 
-The predictors (:mod:`impactnet.models.learned.batch`) use a column-wise copy of stages 1-4
-(:mod:`impactnet.models.learned.pose_columns`) that agrees with these functions up to rounding
-(tested).
+The predictors run stages 1-4 in a compiled row function
+(:mod:`impactnet.models.learned.kernel_frame`) whose features equal these functions' to the last
+bit where the pair's sizes are the bundle's (tested).
 """
 from __future__ import annotations
 
@@ -306,10 +306,9 @@ class LearningArrays(NamedTuple):
 
 def learning_arrays(rows: Mapping, points: tuple = ()) -> LearningArrays:
     """Features, targets and region keys of a labelled dataset (``impactnet.training.data.datagen``
-    columns:
-    the six inputs, ``point``, ``normal``, ``depth``, ``contact_type_code``, ``feature_a``,
-    ``feature_b``), and each further world-frame point array of ``points`` (n, 3) in the
-    point target's frame and scale (e.g. the region labeller's unclipped points)."""
+    columns: the six inputs, ``point``, ``normal``, ``depth``, ``contact_type_code``, ``feature_a``,
+    ``feature_b``), and each further world-frame point array of ``points`` (n, 3) in the point
+    target's frame and scale (e.g. the region labeller's unclipped points)."""
     pose = relative_pose(*(rows[k] for k in ("size_a", "position_a", "quaternion_a", "size_b",
                                              "position_b", "quaternion_b")))
     canonical = canonicalize(pose.rotation, pose.translation)

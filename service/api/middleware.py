@@ -31,7 +31,9 @@ log = logging.getLogger("impactnet.service")
 access = logging.getLogger("impactnet.access")
 
 _CLOSE = (b"connection", b"close")
-_BATCH = "/v1/contact/batch"
+#: Routes whose answers may be large and streamed: their compute slot is freed when the answer
+#: starts.
+_STREAMED = ("/v2/contact/batch", "/v2/frame")
 
 
 class RequestContext(Middleware):
@@ -101,7 +103,7 @@ class ConcurrencyLimit(Middleware):
         self.in_flight = 0  # one event loop: no lock needed
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or not scope["path"].startswith("/v1/"):
+        if scope["type"] != "http" or not scope["path"].startswith(("/v1/", "/v2/")):
             await self.app(scope, receive, send)
             return
         runtime = self.runtime
@@ -132,6 +134,6 @@ class ConcurrencyLimit(Middleware):
         try:
             # A batch's answer may be large and streamed: its slot is freed when it starts.
             # Other answers are sent at once as the handler returns: no wrapper needed.
-            await self.app(scope, receive, send_freeing if scope["path"] == _BATCH else send)
+            await self.app(scope, receive, send_freeing if scope["path"] in _STREAMED else send)
         finally:
             free()

@@ -13,12 +13,11 @@ cut into its
    :data:`KEYS_MAX` colons (422 beyond). A key given twice is refused (422). A body with more
    strings than a batch of ``max_pairs`` pairs can hold is not split (listing its quotes
    would cost more than it is worth) but refused by those counts.
-2. **count** (:func:`_column_cost`): each column's brackets, commas and quotes are counted
-   (sliced ``bytes.count``, no copy), every column before any is parsed. Strings where
-   numbers belong are 422; then a column that could not hold at most ``max_pairs`` rows is
-   413, before parsing. The parse's memory is estimated
-   from the counts (upper bounds measured with jiter, the constants below) and reserved in the
-   request's memory lease, together with the column's float64 copy.
+2. **count** (:func:`_column_cost`): each column's brackets, commas and quotes are counted (sliced
+   ``bytes.count``, no copy), every column before any is parsed. Strings where numbers belong are
+   422; then a column that could not hold at most ``max_pairs`` rows is 413, before parsing. The
+   parse's memory is estimated from the counts (upper bounds measured with jiter, the constants
+   below) and reserved in the request's memory lease, together with the column's float64 copy.
 3. **parse** one column (jiter, no NaN / Infinity tokens; the cyclic garbage collector paused:
    it would otherwise walk the growing lists again and again, 2-3 times the parse's time) and
    convert it to a NumPy array at once, so that its Python objects are freed before the next

@@ -1,12 +1,12 @@
-"""Batch columns -> validated `PairInputs`: shapes, finiteness, ranges, names, rotations.
+"""Batch columns -> the dispatcher's validated :class:`~impactnet.models.dispatch.Pairs`:
+shapes, finiteness, ranges, names, rotations.
 
 Everything is vectorised over pairs: columns become NumPy arrays in one call each, checks are
-array expressions that report the offending rows, and object names are looked up once per
-distinct name. The columns come from a JSON body (:mod:`impactnet.service.codecs.batch_json`) or an
-npz body
-(:mod:`impactnet.service.codecs.npz`, layout in docs/service.md); both read this module's column
-table first,
-to check a column's size before it is decoded.
+array expressions that report the offending rows, object names are looked up once per distinct
+name, and raw sizes become one box shape per distinct size. The columns come from a JSON body
+(:mod:`impactnet.service.codecs.batch_json`) or an npz body (:mod:`impactnet.service.codecs.npz`,
+layout in docs/service.md); both read this module's column table first, to check a column's
+size before it is decoded.
 """
 from __future__ import annotations
 
@@ -14,22 +14,22 @@ import math
 
 import numpy as np
 
+from impactnet.models.dispatch import Pairs, Shape
 from impactnet.models.geometry.rotations import InvalidRotationError, rotation_to_quaternion
-from impactnet.service.api.schemas import (
+from impactnet.service.codecs.pair import rotation_reason, unknown_object_reason
+from impactnet.service.codecs.requests import (
     ANGLE_MAX,
     OBJECT_NAME_MAX,
     POSITION_MAX_M,
     SIZE_MAX_M,
     SIZE_MIN_M,
 )
-from impactnet.service.codecs.pairs import rotation_reason, unknown_object_reason
 from impactnet.service.errors import InputError, PayloadTooLarge
-from impactnet.service.predictors import PairInputs
 from impactnet.service.scene import SceneView
 
 JSON = "application/json"
 NPZ = "application/x-npz"
-OPTIONS = ("mode", "include", "euler_convention")
+OPTIONS = ("mode", "include", "euler_convention", "margin")
 #: Per side: column -> (trailing shape, lower bound, upper bound); "object" holds names.
 NUMERIC = {
     "size": ((3,), SIZE_MIN_M, SIZE_MAX_M),
@@ -118,18 +118,57 @@ def _names(name: str, value):
     return (array[None], False) if array.ndim == 0 else (array, True)
 
 
-def _one_of(columns: dict, side: str, names: tuple[str, ...]) -> str:
-    given = [n for n in names if f"{side}_{n}" in columns]
+def _one_of(columns: dict, prefix: str, names: tuple[str, ...]) -> str:
+    given = [n for n in names if f"{prefix}{n}" in columns]
     if len(given) != 1:
-        choices = ", ".join(f"{side}_{n}" for n in names)
-        raise InputError(f"{side}_{names[0]}", f"give exactly one of {choices} (got "
-                         f"{', '.join(f'{side}_{n}' for n in given) or 'none'})",
+        choices = ", ".join(f"{prefix}{n}" for n in names)
+        raise InputError(f"{prefix}{names[0]}", f"give exactly one of {choices} (got "
+                         f"{', '.join(f'{prefix}{n}' for n in given) or 'none'})",
                          type_="missing" if not given else "conflict")
     return given[0]
 
 
+def body_columns(columns: dict, prefix: str) -> tuple[dict, dict]:
+    """The validated columns of one body per row (``prefix``: ``a_``, ``b_``, or empty for a
+    frame's bodies): its shape (``object`` names or ``size``), ``position`` and one
+    orientation. Returns (column -> rows, column -> whether it has one row per pair)."""
+    if f"{prefix}position" not in columns:
+        raise InputError(f"{prefix}position", "required column", type_="missing")
+    size_kind = _one_of(columns, prefix, ("size", "object"))
+    orientation = _one_of(columns, prefix, ("quaternion", "matrix", "euler"))
+    parsed, per_pair = {}, {}
+    for kind in (size_kind, "position", orientation):
+        key = f"{prefix}{kind}"
+        if kind == "object":
+            parsed[key], per_pair[key] = _names(key, columns[key])
+        else:
+            parsed[key], per_pair[key] = _numeric(key, columns[key], *NUMERIC[kind])
+    return parsed, per_pair
+
+
+def row_count(parsed: dict, per_pair: dict, max_rows: int, request: str = "batch",
+              too_many=too_many_pairs) -> int:
+    """N of validated columns: every per-row column has the same length, 1 to ``max_rows``
+    (422 for ragged or empty, 413 ``too_many(n, max_rows)`` past the cap); ``request``:
+    ``batch`` (rows are pairs) or ``frame`` (rows are bodies)."""
+    lengths = {k: len(v) for k, v in parsed.items() if per_pair[k]}
+    n = max(lengths.values(), default=1)
+    ragged = sorted(k for k, length in lengths.items() if length != n)
+    if ragged:
+        raise InputError(ragged[0], f"ragged {request}: columns have different lengths ("
+                         + ", ".join(f"{k}: {v}" for k, v in sorted(lengths.items())) + ")",
+                         type_="ragged")
+    if n == 0:
+        what = "pair" if request == "batch" else "body"
+        raise InputError(next(iter(lengths)), f"empty {request}: give at least one {what}",
+                         type_="too_short")
+    if n > max_rows:
+        raise too_many(n, max_rows)
+    return n
+
+
 def batch_pairs(columns: dict, scene: SceneView, convention: str,
-                max_pairs: int) -> PairInputs:
+                max_pairs: int) -> Pairs:
     """Validate the columns of a batch and broadcast them to N pairs.
 
     Raises InputError (422, naming the column and rows) and PayloadTooLarge (413, N above
@@ -140,49 +179,46 @@ def batch_pairs(columns: dict, scene: SceneView, convention: str,
         raise unknown_column(unknown[0])
     parsed, per_pair = {}, {}
     for side in "ab":
-        if f"{side}_position" not in columns:
-            raise InputError(f"{side}_position", "required column", type_="missing")
-        size_kind = _one_of(columns, side, ("size", "object"))
-        orientation = _one_of(columns, side, ("quaternion", "matrix", "euler"))
-        for kind in (size_kind, "position", orientation):
-            key = f"{side}_{kind}"
-            if kind == "object":
-                parsed[key], per_pair[key] = _names(key, columns[key])
-            else:
-                parsed[key], per_pair[key] = _numeric(key, columns[key], *NUMERIC[kind])
-    lengths = {k: len(v) for k, v in parsed.items() if per_pair[k]}
-    n = max(lengths.values(), default=1)
-    ragged = sorted(k for k, length in lengths.items() if length != n)
-    if ragged:
-        raise InputError(ragged[0], "ragged batch: columns have different lengths (" + ", ".join(
-            f"{k}: {v}" for k, v in sorted(lengths.items())) + ")", type_="ragged")
-    if n == 0:
-        raise InputError(next(iter(lengths)), "empty batch: give at least one pair",
-                         type_="too_short")
-    if n > max_pairs:
-        raise too_many_pairs(n, max_pairs)
+        values, rows = body_columns(columns, f"{side}_")
+        parsed |= values
+        per_pair |= rows
+    n = row_count(parsed, per_pair, max_pairs)
+    extra: list = []
     out = {}
     for side in "ab":
-        if f"{side}_object" in parsed:
-            index, bad = scene.lookup(parsed[f"{side}_object"])
-            if bad.size:
-                names = np.unique(parsed[f"{side}_object"][bad])
-                raise InputError(f"{side}_object", unknown_object_reason(names, scene), bad,
-                                 type_="unknown_object")
-            out[f"size_{side}"] = scene.sizes[index]
-            out[f"object_{side}"] = index
-        else:
-            out[f"size_{side}"] = parsed[f"{side}_size"]
-            out[f"object_{side}"] = np.full(1, -1)
-        out[f"position_{side}"] = parsed[f"{side}_position"]
-        kind = next(k for k in ("quaternion", "matrix", "euler") if f"{side}_{k}" in parsed)
-        try:
-            out[f"quaternion_{side}"] = rotation_to_quaternion(
-                **{kind: parsed[f"{side}_{kind}"]}, euler_convention=convention)
-        except InvalidRotationError as exc:
-            raise InputError(f"{side}_{kind}", rotation_reason(exc), exc.rows,
-                             type_="invalid_rotation") from exc
-    width = {"size": 3, "position": 3, "quaternion": 4}
-    return PairInputs(**{k: (np.broadcast_to(v, (n, width[k.split("_")[0]]))
-                             if k.split("_")[0] in width else np.broadcast_to(v, (n,)))
-                         for k, v in out.items()})
+        out[f"shape_{side}"], out[f"position_{side}"], out[f"quaternion_{side}"] = \
+            body_arrays(parsed, f"{side}_", n, scene, convention, extra)
+    return Pairs(scene.shapes + tuple(extra), **out)
+
+
+def _shape_column(parsed: dict, prefix: str, n: int, scene: SceneView, extra: list):
+    """(n,) shape indices of one body column: scene objects by name, raw sizes as boxes
+    appended to ``extra`` (one shape per distinct size)."""
+    if f"{prefix}object" in parsed:
+        index, bad = scene.with_compound.lookup(parsed[f"{prefix}object"])
+        if bad.size:
+            names = np.unique(parsed[f"{prefix}object"][bad])
+            raise InputError(f"{prefix}object", unknown_object_reason(names, scene), bad,
+                             type_="unknown_object")
+        return np.broadcast_to(index, (n,))
+    sizes, inverse = np.unique(parsed[f"{prefix}size"], axis=0, return_inverse=True)
+    start = len(scene.shapes) + len(extra)
+    extra += [Shape.box(size) for size in sizes]
+    return np.broadcast_to(start + inverse.reshape(-1), (n,))
+
+
+def body_arrays(parsed: dict, prefix: str, n: int, scene: SceneView, convention: str,
+                extra: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(shape indices (n,) into ``scene.shapes + extra``, positions (n, 3), unit quaternions
+    (n, 4)) of one body column's validated rows (:func:`body_columns`); raw sizes append
+    their box shapes to ``extra``."""
+    shape = _shape_column(parsed, prefix, n, scene, extra)
+    position = np.broadcast_to(parsed[f"{prefix}position"], (n, 3))
+    kind = next(k for k in ("quaternion", "matrix", "euler") if f"{prefix}{k}" in parsed)
+    try:
+        q = rotation_to_quaternion(**{kind: parsed[f"{prefix}{kind}"]},
+                                   euler_convention=convention)
+    except InvalidRotationError as exc:
+        raise InputError(f"{prefix}{kind}", rotation_reason(exc), exc.rows,
+                         type_="invalid_rotation") from exc
+    return shape, position, np.broadcast_to(q, (n, 4))

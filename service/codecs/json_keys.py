@@ -103,8 +103,7 @@ def validated_json(model, raw: bytes, content_type: str | None):
 
 def check_no_duplicates(raw: bytes, keys: int) -> None:
     """Raise :class:`impactnet.service.errors.DuplicateKey` (422, naming the key) when the valid
-    JSON
-    document ``raw``, whose parse kept ``keys`` distinct keys, repeats one."""
+    JSON document ``raw``, whose parse kept ``keys`` distinct keys, repeats one."""
     if raw.count(b":") <= keys:
         return
     duplicate = first_duplicate_key(raw)
@@ -150,11 +149,9 @@ def _colons_outside_strings(raw: bytes) -> int:
 
 
 def validated_unique(model, raw: bytes, content_type: str | None):
-    """:func:`validated_json`, then the duplicate-key check. A body
-    with more
-    keys than ``model`` knows is refused first, unparsed (422 naming a repeated key, else
-    ``too_many_keys``): validating thousands of unknown keys held the event loop's GIL for
-    tens of milliseconds."""
+    """:func:`validated_json`, then the duplicate-key check. A body with more keys than ``model``
+    knows is refused first, unparsed (422 naming a repeated key, else ``too_many_keys``): validating
+    thousands of unknown keys held the event loop's GIL for tens of milliseconds."""
     limit = known_keys(model)
     if raw.count(b":") > limit:
         keys = _colons_outside_strings(raw)

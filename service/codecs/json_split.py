@@ -1,15 +1,14 @@
 """The members of a JSON body's top-level object, found without parsing it.
 
-Every batch a client library writes has a simple layout: one object of columns, no nested
-object, no escaped character. There, the quotes pair up in order (no string holds a quote), a
-string is a key exactly when the next character outside whitespace is a colon, and a member's
-value runs from its key's colon to the comma before the next key. :func:`split_columns` finds
-the members that way, with vectorised scans, so that each column can be counted and parsed on
-its own (:mod:`impactnet.service.codecs.batch_json`); any body outside the layout gives None and is
-parsed
-whole. The value slices are parsed strictly afterwards, so a body that is not valid JSON is
-never accepted: every slice must be one JSON value, and between two members there must be
-exactly one comma.
+Every batch a client library writes has a simple layout: one object of columns, no nested object, no
+escaped character. There, the quotes pair up in order (no string holds a quote), a string is a key
+exactly when the next character outside whitespace is a colon, and a member's value runs from its
+key's colon to the comma before the next key. :func:`split_columns` finds the members that way, with
+vectorised scans, so that each column can be counted and parsed on its own
+(:mod:`impactnet.service.codecs.batch_json`); any body outside the layout gives None and is parsed
+whole. The value slices are parsed strictly afterwards, so a body that is not valid JSON is never
+accepted: every slice must be one JSON value, and between two members there must be exactly one
+comma.
 """
 from __future__ import annotations
 

@@ -20,6 +20,8 @@ from __future__ import annotations
 import io
 import math
 import zipfile
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,7 +30,8 @@ from impactnet.service.codecs.columns import COLUMNS, tail_of, too_many_pairs, u
 from impactnet.service.errors import InputError, Overloaded, PayloadTooLarge
 from impactnet.service.limits.budget import Lease
 
-#: Most members an npz body may hold: a batch has at most 6 columns per side, 12 in all.
+#: Most members an npz body may hold: a batch has at most 6 columns per side, 12 in all; a
+#: frame 9.
 MAX_MEMBERS = 16
 #: Signature of a zip central-directory entry: every member the zip reader lists has one
 #: (a count of them in the body is never below the number of members).
@@ -51,14 +54,28 @@ def _header(archive: zipfile.ZipFile, member: zipfile.ZipInfo) -> tuple[tuple, n
     return shape, dtype
 
 
-def _rows(column: str, shape: tuple) -> int:
-    """Pairs a member of this shape holds (1 for a broadcast value)."""
-    tail = tail_of(column)
+@dataclass(frozen=True)
+class Layout:
+    """What an npz body may hold: its columns, a row's shape in each, the 413 past the cap."""
+
+    columns: tuple[str, ...]  # the known column names
+    tail: Callable  # column -> a row's trailing shape (None: names, one per row)
+    too_many: Callable  # (rows, cap) -> the 413 error
+    unknown: Callable  # column -> the 422 error
+
+
+#: A batch's layout (the pairs' columns).
+BATCH = Layout(COLUMNS, tail_of, too_many_pairs, unknown_column)
+
+
+def _rows(column: str, shape: tuple, layout: Layout) -> int:
+    """Rows a member of this shape holds (1 for a broadcast value)."""
+    tail = layout.tail(column)
     per_pair_ndim = 1 if tail is None else len(tail) + 1
     return int(shape[0]) if len(shape) == per_pair_ndim else 1
 
 
-def _checked(archive: zipfile.ZipFile, max_pairs: int) -> tuple[list, int]:
+def _checked(archive: zipfile.ZipFile, max_pairs: int, layout: Layout) -> tuple[list, int]:
     """Members with their column names, and their decoded size in bytes (step 3)."""
     members, decoded = [], 0
     for member in archive.infolist():
@@ -67,8 +84,8 @@ def _checked(archive: zipfile.ZipFile, max_pairs: int) -> tuple[list, int]:
         if not name.endswith(".npy") or any(column == c for _, c in members):
             raise InputError("body", f"npz member {name!r}: expected one <column>.npy per "
                              "column", type_="npz_invalid")
-        if column not in COLUMNS:
-            raise unknown_column(column)
+        if column not in layout.columns:
+            raise layout.unknown(column)
         shape, dtype = _header(archive, member)
         if dtype.hasobject:
             raise InputError(column, "object arrays are not accepted (no pickle)",
@@ -76,29 +93,30 @@ def _checked(archive: zipfile.ZipFile, max_pairs: int) -> tuple[list, int]:
         count = math.prod(shape)
         if count * dtype.itemsize > member.file_size:
             raise ValueError(f"member {name!r} is shorter than its header says")
-        rows = _rows(column, shape)
+        rows = _rows(column, shape, layout)
         if rows > max_pairs:
-            raise too_many_pairs(rows, max_pairs)
-        copy = 0 if tail_of(column) is None else count * FLOAT64_BYTES
+            raise layout.too_many(rows, max_pairs)
+        copy = 0 if layout.tail(column) is None else count * FLOAT64_BYTES
         decoded += member.file_size + copy
         members.append((member, column))
     return members, decoded
 
 
-def parse_npz(body: bytes, max_bytes: int, max_pairs: int, lease: Lease) -> dict:
-    """Columns of an npz body (module docstring for the checks made first).
+def parse_npz(body: bytes, max_bytes: int, max_pairs: int, lease: Lease,
+              layout: Layout = BATCH) -> dict:
+    """Columns of an npz body of ``layout`` (module docstring for the checks made first).
 
     Raises InputError (422), PayloadTooLarge (413) and Overloaded (503).
     """
     if scan.count(body, _CENTRAL_DIRECTORY) > MAX_MEMBERS:
         raise InputError("body", f"npz with more than {MAX_MEMBERS} members; a batch has at "
-                         "most 12 columns", type_="npz_invalid")
+                         "most 12 columns, a frame 9", type_="npz_invalid")
     try:
         archive = zipfile.ZipFile(io.BytesIO(body))
         if sum(m.file_size for m in archive.infolist()) > max_bytes:
             raise PayloadTooLarge("body_too_large", f"npz body expands beyond the limit of "
                                   f"{max_bytes} bytes")
-        members, decoded = _checked(archive, max_pairs)
+        members, decoded = _checked(archive, max_pairs, layout)
         lease.reserve(decoded, "decoding the npz body")
         columns = {}
         for member, column in members:

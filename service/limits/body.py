@@ -13,11 +13,10 @@ application's:
   :data:`DISCARD_MAX_BYTES` and within the body deadline, as nginx's lingering close does (a
   client that asked ``Expect: 100-continue`` sends nothing more: nothing is read);
 * **deadline**: the whole body must have arrived within ``body_timeout_s``; otherwise 408
-  ``body_timeout``, and the connection is closed (a stalled client sent headers and a byte,
-  then nothing: it must not hold anything for longer; :mod:`impactnet.service.limits.uploads` keeps
-  the
-  deadlines). When the server shuts down, every upload still in progress ends at once with
-  503 ``not_ready``, so that a stalled client cannot delay the exit;
+  ``body_timeout``, and the connection is closed (a stalled client sent headers and a byte, then
+  nothing: it must not hold anything for longer; :mod:`impactnet.service.limits.uploads` keeps the
+  deadlines). When the server shuts down, every upload still in progress ends at once with 503
+  ``not_ready``, so that a stalled client cannot delay the exit;
 * **memory**: every chunk is reserved in the request's
 :class:`impactnet.service.limits.budget.Lease` as it
   arrives; no room: 503 ``overloaded`` with Retry-After. The lease is released when the
@@ -41,7 +40,9 @@ from impactnet.service.runtime import Runtime
 #: Key of the request's memory lease in the ASGI scope.
 LEASE = "impactnet.lease"
 NPZ = b"application/x-npz"
-BATCH_PATH = "/v1/contact/batch"
+#: Routes whose bodies may be large (a batch, a frame): JSON up to ``max_json_body_bytes``,
+#: npz up to ``max_body_bytes``.
+LARGE_BODY_PATHS = ("/v2/contact/batch", "/v2/frame", "/v2/worlds")
 _CLOSE = [(b"connection", b"close")]
 #: Most bytes of an oversized body read and dropped before its 413 is sent (more: the
 #: connection is closed after the 413 without reading on): the largest body any route takes.
@@ -56,7 +57,7 @@ def body_limit(scope: Scope, runtime: Runtime) -> int:
     for a JSON batch (``max_json_body_bytes``) and for any other request
     (``max_pair_body_bytes``)."""
     settings = runtime.settings
-    if scope["path"] != BATCH_PATH:
+    if scope["path"] not in LARGE_BODY_PATHS:
         return min(settings.max_body_bytes, settings.max_pair_body_bytes)
     media = (header(scope, b"content-type") or b"").split(b";", 1)[0].strip().lower()
     if media == NPZ:

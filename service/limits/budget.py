@@ -2,13 +2,11 @@
 
 What counts against the budget (``settings.memory_budget_bytes``): the bytes of request bodies
 as they arrive (:mod:`impactnet.service.limits.body`), the estimated size of a batch's decoded
-columns before
-they are decoded (:mod:`impactnet.service.codecs.npz`, :mod:`impactnet.service.codecs.batch_json`),
-the solver's working set and
-the answer's arrays before they are computed, and the buffer of an answer being encoded
-(:mod:`impactnet.service.batch_solve`). Every reservation of one request goes into its
-:class:`Lease`,
-which is released as a whole when the request has been answered.
+columns before they are decoded (:mod:`impactnet.service.codecs.npz`,
+:mod:`impactnet.service.codecs.batch_json`), the validated pairs, and the solver's working set
+and the answer before they are computed (:mod:`impactnet.service.solve`). Every reservation of
+one request goes into its :class:`Lease`, which is released as a whole when the request has
+been answered.
 
 A reservation that does not fit waits up to ``memory_wait_s`` for others to be released, then
 fails with 503 ``overloaded`` (Retry-After): never an out-of-memory kill. One that could never

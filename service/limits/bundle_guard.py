@@ -1,9 +1,8 @@
 """Checks of a bundle folder's files before the bundle reader opens any of them.
 
 :func:`impactnet.models.bundle.format.read_bundle` reads ``manifest.json`` whole and unchecked, and
-a reader
-that opens a FIFO blocks forever (a reload once held its lock and lost its worker thread that
-way), while a symlink to ``/dev/zero`` reads without end. So, at startup and on every reload,
+a reader that opens a FIFO blocks forever (a reload once held its lock and lost its worker thread
+that way), while a symlink to ``/dev/zero`` reads without end. So, at startup and on every reload,
 before the reader sees the folder (:func:`check_bundle_files`):
 
 * the store pointer (``current``), ``manifest.json`` and every file the manifest lists must be

@@ -1,13 +1,12 @@
 """Freed memory given back to the system after large requests (glibc's ``malloc_trim``).
 
-NumPy's arrays are freed when a request ends, but glibc keeps the freed pages of its arenas
-for reuse, and raises its mmap threshold after large frees, so that the next large arrays come
-from the arenas too: a replica that once served a 1 GB batch stayed at 1.0-1.6 GB resident
-while idle. After a request whose lease held more than :data:`TRIM_AFTER_BYTES` (or that ran
-longer than :data:`TRIM_AFTER_S`), once no such
-request has ended for :data:`TRIM_DELAY_S`, the process calls ``malloc_trim(0)`` (in a worker
-thread: it walks every arena), which returns the free pages of every arena. Where the C library
-has no ``malloc_trim`` (not glibc), nothing is done.
+NumPy's arrays are freed when a request ends, but glibc keeps the freed pages of its arenas for
+reuse, and raises its mmap threshold after large frees, so that the next large arrays come from the
+arenas too: a replica that once served a 1 GB batch stayed at 1.0-1.6 GB resident while idle. After
+a request whose lease held more than :data:`TRIM_AFTER_BYTES` (or that ran longer than
+:data:`TRIM_AFTER_S`), once no such request has ended for :data:`TRIM_DELAY_S`, the process calls
+``malloc_trim(0)`` (in a worker thread: it walks every arena), which returns the free pages of every
+arena. Where the C library has no ``malloc_trim`` (not glibc), nothing is done.
 """
 from __future__ import annotations
 

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import orjson
 
-from impactnet.service.bench_http import poses
 from impactnet.service.fleet import local
+from impactnet.training.bench.http.service_speed import poses
 from tests.apt_packages import Unavailable, apt_install  # noqa: F401 (the fixtures' skip)
 
 #: Seconds a client waits for one answer before it counts the request as failed.
@@ -58,7 +58,7 @@ def nginx_test(binary: str, config_text: str, folder: str) -> subprocess.Complet
 
 
 def npz_batch(n: int, seed: int = 0) -> bytes:
-    """An npz batch body of ``n`` cube pairs around contact (mode exact): bench_http's poses."""
+    """An npz batch body of ``n`` cube pairs around contact (mode exact): service_speed's poses."""
     buffer = io.BytesIO()
     np.savez(buffer, **poses(n, seed))
     return buffer.getvalue()
@@ -86,10 +86,10 @@ class Load:
     afterwards.
 
     ``targets``: one port per client (the front, or a replica directly); ``body`` and
-    ``content_type``: what each sends (default: one pair as JSON to /v1/contact)."""
+    ``content_type``: what each sends (default: one pair as JSON to /v2/contact)."""
 
     targets: list[int]
-    path: str = "/v1/contact"
+    path: str = "/v2/contact"
     body: bytes = field(default_factory=lambda: orjson.dumps(PAIR))
     content_type: str = "application/json"
     pause_s: float = 0.0  # between two requests of one client
@@ -156,7 +156,7 @@ class Load:
 
 
 def slow_upload(port: int, body: bytes, duration_s: float, chunks: int = 20,
-                path: str = "/v1/contact/batch",
+                path: str = "/v2/contact/batch",
                 content_type: str = "application/x-npz") -> tuple[int, str | None, str]:
     """POST ``body`` in ``chunks`` pieces spread over ``duration_s`` (a slow but steady
     client); returns (status (0: no answer), X-Replica, error text)."""

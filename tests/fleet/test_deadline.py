@@ -43,13 +43,13 @@ def test_a_request_past_its_deadline_runs_on_exactly_one_replica(nginx):
             "--compute-deadline", str(DEADLINE_S)]
     with Fleet(2, args, nginx=nginx) as fleet:
         conn = http.client.HTTPConnection("127.0.0.1", fleet.front.port, timeout=60)
-        conn.request("POST", "/v1/contact/batch", _heavy(),
+        conn.request("POST", "/v2/contact/batch", _heavy(),
                      {"Content-Type": "application/x-npz", "Accept": "application/x-npz"})
         response = conn.getresponse()
         body = response.read()
         assert response.status == 504, body[:300]
         assert json.loads(body)["error"] == "deadline_exceeded"
-        batches = [_metric(m.port, r'impactnet_http_requests_total\{[^}]*route="/v1/contact/batch"'
+        batches = [_metric(m.port, r'impactnet_http_requests_total\{[^}]*route="/v2/contact/batch"'
                            r'[^}]*\}') for m in fleet.members]
         stopped = [_metric(m.port, "impactnet_deadline_exceeded_total") for m in fleet.members]
     assert sorted(batches) == [0.0, 1.0], batches  # one replica saw it, the other never

@@ -39,7 +39,7 @@ def test_a_replica_stopped_under_load_fails_no_request(nginx):
         port = fleet.front.port
         victim = fleet.members[1]
         pairs = Load([port] * 3)
-        batches = Load([port] * 2, path="/v1/contact/batch", body=npz_batch(BATCH_PAIRS),
+        batches = Load([port] * 2, path="/v2/contact/batch", body=npz_batch(BATCH_PAIRS),
                        content_type="application/x-npz")
         with pairs, batches:
             time.sleep(STEADY_S)

@@ -36,13 +36,13 @@ def test_stalled_uploads_stay_at_the_front_and_normal_clients_are_answered(nginx
         sockets = stalled_sockets(port, STALLED)
         try:
             started = time.monotonic()
-            status, _, body = post(port, "/v1/contact/batch", npz_batch(LARGE_BATCH),
+            status, _, body = post(port, "/v2/contact/batch", npz_batch(LARGE_BATCH),
                                    {"Content-Type": "application/x-npz"})
             assert status == 200, body[:300]
             replicas, pair = set(), orjson.dumps(PAIR)
             while time.monotonic() - started < BODY_TIMEOUT_S - 2.0:  # while they stall
                 sent = time.monotonic()
-                status, headers, body = post(port, "/v1/contact", pair)
+                status, headers, body = post(port, "/v2/contact", pair)
                 assert status == 200, body
                 assert time.monotonic() - sent < NORMAL_LATENCY_S
                 replicas.add(headers["x-replica"])

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import dataclasses
 import http.client
 import os
 import signal
@@ -59,8 +60,7 @@ test_settings.__test__ = False  # a helper, not a test
 @pytest.fixture(autouse=True)
 def _restore_thread_env(monkeypatch):
     """``impactnet.service.cli.run`` pins BLAS thread counts in ``os.environ``; tests that call it
-    in
-    process must not leave them behind for later tests (monkeypatch restores them)."""
+    in process must not leave them behind for later tests (monkeypatch restores them)."""
     from impactnet.service.cli import THREAD_ENV
 
     for name in THREAD_ENV:
@@ -85,6 +85,17 @@ def client():
     """A ready TestClient with the default scene and default limits."""
     with TestClient(create_app(test_settings()), raise_server_exceptions=False) as c:
         yield c
+
+
+def serve_exact_with(app, predictor) -> None:
+    """Serve ``predictor`` (``box_box``'s signature and answer) as ``app``'s exact box solver:
+    a serving state whose dispatcher's exact link is ``predictor``, installed as a reload
+    installs one."""
+    runtime = app.state.runtime
+    state = dataclasses.replace(runtime.serving,
+                                predictors=runtime.serving.predictors | {"exact": predictor})
+    state.dispatcher.box_predictors["exact"] = predictor
+    runtime.install(state)
 
 
 def assert_error(response, status: int, field: str | None = None, error: str | None = None):

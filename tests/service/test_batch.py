@@ -1,4 +1,5 @@
-"""POST /v1/contact/batch: columnar JSON and npz, equal answers, bad columns (status first)."""
+"""POST /v2/contact/batch: columnar JSON and npz in the one answer shape (per pair, and the ragged
+part contacts), equal answers, the gap within a margin, bad columns (status first)."""
 from __future__ import annotations
 
 import io
@@ -10,9 +11,10 @@ import pytest
 
 from impactnet.models.box.exact import box_box
 from impactnet.models.geometry.rotations import quaternion_to_matrix, random_quaternions
+from tests.service.answer_paths import assert_same_answer
 from tests.service.conftest import assert_error
 
-URL = "/v1/contact/batch"
+URL = "/v2/contact/batch"
 NPZ = "application/x-npz"
 
 
@@ -61,10 +63,21 @@ def test_json_batch_matches_exact_solver(client):
     np.testing.assert_allclose(body["depth"], expected.depth, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(body["colliding"], expected.colliding)
     assert body["contact_type"] == expected.contact_type.tolist()
-    np.testing.assert_array_equal(body["feature_a"], expected.feature_a)
+    np.testing.assert_array_equal(body["feature_a"]["id"], expected.feature_a)
+    np.testing.assert_array_equal(body["feature_b"]["id"], expected.feature_b)
+    assert body["feature_a"]["part"] == ["box" if c else None for c in body["colliding"]]
     assert body["predictor"] == ["exact"] * 500
-    assert "manifold_points" not in body and "paper_angles" not in body
+    assert "manifold_points" not in body["contacts"] and "paper_angles" not in body
     assert 0 < sum(body["colliding"]) < 500
+    # one part contact per touching pair: the solver's own axis and pressure
+    hit = expected.colliding
+    np.testing.assert_array_equal(np.diff(body["contacts"]["offsets"]), hit.astype(int))
+    np.testing.assert_array_equal(body["contacts"]["axis"], expected.axis[hit])
+    np.testing.assert_allclose(body["contacts"]["depth"], expected.depth[hit], rtol=0,
+                               atol=1e-12)
+    np.testing.assert_allclose(body["contacts"]["pressure"], expected.pressure[hit], rtol=0,
+                               atol=1e-12)
+    assert body["contacts"]["part_a"] == ["box"] * int(hit.sum())
 
 
 def test_binary_round_trip_equals_json(client):
@@ -76,16 +89,13 @@ def test_binary_round_trip_equals_json(client):
     assert as_text.status_code == 200 and as_npz.status_code == 200
     assert as_npz.headers["content-type"] == NPZ
     text, binary = as_text.json(), load_npz(as_npz.content)
-    for key in ("point", "normal", "depth", "confidence", "colliding", "feature_a",
-                "feature_b", "axis", "manifold_count", "manifold_points", "manifold_depths"):
-        np.testing.assert_array_equal(np.asarray(text[key]), binary[key], err_msg=key)
-    angles = np.array(text["paper_angles"], dtype=np.float64)  # null -> NaN
-    np.testing.assert_array_equal(angles, binary["paper_angles"])
+    assert_same_answer(text, binary)  # every member, every value
+    assert "contact_manifold_points" in binary and "paper_angles" in binary
+    assert None in text["paper_angles"] and np.isnan(binary["paper_angles"]).any()
     assert binary["point"].dtype == np.dtype("<f8") and binary["colliding"].dtype == bool
-    names = binary["contact_type_names"][binary["contact_type_code"]]
-    assert names.tolist() == text["contact_type"]
+    assert binary["contact_type"].tolist() == text["contact_type"]
+    assert binary["feature_a_name"].tolist() == text["feature_a"]["name"]
     assert str(binary["model_version"]) == text["model_version"]
-    assert binary["predictor_names"][binary["predictor_code"]].tolist() == text["predictor"]
 
 
 @pytest.mark.parametrize("request_type,answer_type", [("json", NPZ), (NPZ, "json")])
@@ -120,9 +130,44 @@ def test_broadcast_objects_matrices_and_euler(client):
 
 def test_options_in_query_string_for_json(client):
     response = client.post(URL + "?include=manifold", json=as_json(poses(3)))
-    assert response.status_code == 200 and "manifold_points" in response.json()
+    assert response.status_code == 200 and "manifold_points" in response.json()["contacts"]
     both = client.post(URL + "?mode=exact", json=as_json(poses(3), mode="exact"))
     assert_error(both, 422, "mode")
+
+
+def _apart(gaps) -> dict:
+    """Unit cubes side by side along x, their faces ``gaps`` apart (metres)."""
+    return {"a_size": [1.0, 1.0, 1.0], "a_position": [0, 0, 0], "a_quaternion": [1, 0, 0, 0],
+            "b_size": [1.0, 1.0, 1.0], "b_position": [[1.0 + g, 0, 0] for g in gaps],
+            "b_quaternion": [1, 0, 0, 0]}
+
+
+def test_a_margin_in_the_body_or_the_query_answers_the_gaps_within_it(client):
+    columns = _apart([-0.01, 0.2, 0.6])
+    text = client.post(URL, json=columns | {"margin": 0.5}).json()
+    np.testing.assert_allclose(text["distance"][:2], [-0.01, 0.2], rtol=0, atol=1e-12)
+    assert text["distance"][2] is None  # beyond the margin
+    assert text["closest_a"][0] is None and text["closest_a"][2] is None
+    np.testing.assert_allclose(text["closest_a"][1], [0.5, 0, 0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(text["closest_b"][1], [0.7, 0, 0], rtol=0, atol=1e-12)
+    assert text["feature_a"]["part"] == ["box", "box", None]
+    binary = load_npz(client.post(URL + "?margin=0.5", content=npz_bytes(
+        {k: np.asarray(v) for k, v in columns.items()}), headers={"Content-Type": NPZ,
+                                                                  "Accept": NPZ}).content)
+    assert_same_answer(text, binary)
+    assert binary["distance"][2] == np.inf and np.isnan(binary["closest_b"][2]).all()
+    assert_error(client.post(URL + "?margin=100.5", json=columns), 422, "margin")
+    assert_error(client.post(URL, json=columns | {"margin": -1}), 422, "margin")
+
+
+def test_the_documented_json_body_names_every_column_and_option_the_parser_accepts(client):
+    """The OpenAPI document's BatchRequest (closed: additionalProperties false) and the NumPy
+    parser accept the same keys (a `margin` missing from the document was drift)."""
+    from impactnet.service.codecs.columns import COLUMNS, OPTIONS
+
+    documented = client.get("/openapi.json").json()["components"]["schemas"]["BatchRequest"]
+    assert documented["additionalProperties"] is False
+    assert set(documented["properties"]) == set(COLUMNS) | set(OPTIONS)
 
 
 def test_learned_mode_is_409(client):
@@ -267,10 +312,12 @@ def test_json_floats_round_trip_exactly(client):
 def test_a_streamed_json_answer_equals_the_npz_answer(client):
     """More than STREAM_ROWS pairs: the JSON answer is streamed in pieces, solved in chunks of
     CHUNK_ROWS, and carries the same values as the npz answer and the exact solver."""
-    from impactnet.service.batch_solve import CHUNK_ROWS
-    from impactnet.service.codecs.answer_encode import STREAM_ROWS
+    from impactnet.models.compiled import CHUNK_ROWS
+    from impactnet.service.api.routers.batch import WHOLE_ROWS
+    from impactnet.service.codecs.answers import STREAM_ROWS
 
     n = CHUNK_ROWS + STREAM_ROWS + 17
+    assert n > WHOLE_ROWS  # too large to be encoded whole
     columns = poses(n, seed=12)
     include = "?include=manifold&include=paper_angles"
     as_text = client.post(URL + include, content=npz_bytes(columns),
@@ -278,34 +325,52 @@ def test_a_streamed_json_answer_equals_the_npz_answer(client):
     as_npz = client.post(URL + include, content=npz_bytes(columns),
                          headers={"Content-Type": NPZ, "Accept": NPZ})
     assert as_text.status_code == 200 and as_npz.status_code == 200
+    assert "content-length" not in as_text.headers  # streamed (chunked)
+    assert "content-length" not in as_npz.headers
     text, binary = orjson.loads(as_text.content), load_npz(as_npz.content)
     assert text["n"] == n
-    for key in ("point", "normal", "depth", "confidence", "colliding", "feature_a",
-                "feature_b", "axis", "manifold_count", "manifold_points", "manifold_depths"):
-        np.testing.assert_array_equal(np.asarray(text[key]), binary[key], err_msg=key)
-    np.testing.assert_array_equal(np.array(text["paper_angles"], dtype=np.float64),
-                                  binary["paper_angles"])
-    assert binary["contact_type_names"][binary["contact_type_code"]].tolist() == \
-        text["contact_type"]
+    assert_same_answer(text, binary)
     expected = box_box(*(columns[k] for k in ("a_size", "a_position", "a_quaternion",
                                               "b_size", "b_position", "b_quaternion")))
     np.testing.assert_allclose(binary["point"], expected.point, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(binary["colliding"], expected.colliding)
 
 
-def test_json_pieces_are_the_bytes_of_one_orjson_call():
-    from impactnet.service.codecs.answer_encode import CONTACT_NAMES, STREAM_ROWS, encode_json
+def _whole_answer(answers, pairs, include, mode: str, version: str) -> dict:
+    """The batch answer as one nested dict, each column read whole (no slices): a row with a
+    NaN or an infinity is null, missing names are null."""
+    from impactnet.service.codecs.answers import columns
 
-    rng = np.random.default_rng(0)
+    whole = {"n": len(answers), "mode": mode, "model_version": version}
+    for column in columns(answers, pairs, include):
+        values = column.read(0, column.rows)
+        if values.dtype.kind == "f":
+            finite = np.isfinite(values).reshape(len(values), -1).all(axis=1)
+            values = [row if ok else None for row, ok in zip(values.tolist(), finite.tolist())]
+        elif values.dtype.kind in "OU":  # names, None where missing
+            values = values.tolist()
+        target = whole
+        for key in column.path[:-1]:
+            target = target.setdefault(key, {})
+        target[column.path[-1]] = values
+    return whole
+
+
+def test_json_pieces_are_the_bytes_of_one_orjson_call():
+    """The streamed encoding (slices of STREAM_ROWS rows, nested objects opened and closed
+    between columns) writes the bytes of one orjson call on the whole answer."""
+    from impactnet.models.dispatch import Dispatcher
+    from impactnet.service.codecs.answers import STREAM_ROWS, batch_json
+    from impactnet.service.codecs.columns import batch_pairs
+    from impactnet.service.scene import load_scene_view
+
     n = 2 * STREAM_ROWS + 5
-    arrays = {"colliding": rng.random(n) < 0.5, "point": rng.normal(size=(n, 3)),
-              "depth": rng.random(n), "contact_type_code": rng.integers(0, 7, n).astype(np.int8),
-              "predictor_code": rng.integers(0, 2, n).astype(np.int8),
-              "predictor_names": np.array(["committee", "exact"]),
-              "paper_angles": np.where(rng.random((n, 4)) < 0.1, np.nan, rng.normal(size=(n, 4)))}
-    whole = {"n": n, "mode": "auto", "model_version": "v1",
-             "predictor": arrays["predictor_names"][arrays["predictor_code"]].tolist(),
-             "contact_type": CONTACT_NAMES[arrays["contact_type_code"]].tolist(),
-             **{k: arrays[k] for k in ("colliding", "point", "depth", "paper_angles")}}
-    assert encode_json(arrays, "auto", "v1") == orjson.dumps(
-        whole, option=orjson.OPT_SERIALIZE_NUMPY)
+    scene = load_scene_view("quay_crane")
+    pairs = batch_pairs(poses(n, seed=13), scene, "zyx", n)
+    include = ("manifold", "paper_angles")
+    answers = Dispatcher().answer(pairs, "exact", include, margin=0.5)
+    assert 0 < len(answers.contacts["depth"]) < n  # contacts, and rows without any
+    assert np.isinf(answers.body["distance"]).any()  # nulls beyond the margin
+    pieces = list(batch_json(answers, pairs, include, "auto", "v1"))
+    whole = _whole_answer(answers, pairs, include, "auto", "v1")
+    assert b"".join(pieces) == orjson.dumps(whole, option=orjson.OPT_SERIALIZE_NUMPY)

@@ -9,8 +9,8 @@ import io
 import numpy as np
 import pytest
 
-from impactnet.models.bundle.format import write_bundle
 from impactnet.models.compound import compound_answer
+from impactnet.models.learned.bundle_loader import write_bundle
 from impactnet.models.scenes import load_scene
 from impactnet.training.compound.rows import split_rows
 from tests.compound_bundle import GUIDE_PAIR, guide_manifest, guide_rows
@@ -51,7 +51,7 @@ def test_models_lists_the_compound_pairs_with_their_decision(served):
 def test_auto_answers_through_the_chain_and_agrees_with_the_oracle_where_it_names_the_parts(
         served):
     position, quaternion = _held_out()
-    answer = served.post("/v1/contact/batch", json=_batch(position, quaternion, "auto")).json()
+    answer = served.post("/v2/contact/batch", json=_batch(position, quaternion, "auto")).json()
     assert set(answer["predictor"]) <= {"exact-part", "oracle", "learned"}
     assert "exact-part" in answer["predictor"]
     scene = load_scene("quay_crane_detail")
@@ -67,18 +67,18 @@ def test_auto_answers_through_the_chain_and_agrees_with_the_oracle_where_it_name
                                            ("committee", {"exact-part", "learned"})])
 def test_each_mode_names_who_answered(served, mode, allowed):
     position, quaternion = _held_out(6)
-    answer = served.post("/v1/contact/batch", json=_batch(position, quaternion, mode)).json()
+    answer = served.post("/v2/contact/batch", json=_batch(position, quaternion, mode)).json()
     assert set(answer["predictor"]) <= allowed and answer["mode"] == mode
 
 
 def test_one_pair_names_its_predictor_and_the_npz_carries_it(served):
     position, quaternion = _held_out(3)
-    one = served.post("/v1/contact", json={
+    one = served.post("/v2/contact", json={
         "a": {"object": "cell_guide", "position": [0, 0, 0], "quaternion": IDENTITY},
         "b": {"object": "container40", "position": position[0].tolist(),
               "quaternion": quaternion[0].tolist()}, "mode": "auto"}).json()
     assert one["predictor"] in ("exact-part", "oracle", "learned")
-    binary = served.post("/v1/contact/batch", json=_batch(position, quaternion, "auto"),
+    binary = served.post("/v2/contact/batch", json=_batch(position, quaternion, "auto"),
                          headers={"accept": "application/x-npz"})
     with np.load(io.BytesIO(binary.content), allow_pickle=False) as npz:
         assert set(npz["predictor"].tolist()) <= {"exact-part", "oracle", "learned"}
@@ -87,11 +87,11 @@ def test_one_pair_names_its_predictor_and_the_npz_carries_it(served):
 def test_the_pair_in_the_other_order_or_recorded_exact_only_is_answered_by_the_oracle(
         served, make_client, bundles):
     position, quaternion = _held_out(4)
-    flipped = served.post("/v1/contact/batch", json=_batch(
+    flipped = served.post("/v2/contact/batch", json=_batch(
         -position, quaternion, "auto", a="container40", b="cell_guide")).json()
     assert set(flipped["predictor"]) == {"oracle"}
     exact_only = make_client(scene="quay_crane_detail", bundle=str(bundles[1]))
-    answer = exact_only.post("/v1/contact/batch",
+    answer = exact_only.post("/v2/contact/batch",
                              json=_batch(position, quaternion, "auto")).json()
     assert set(answer["predictor"]) == {"oracle"}
 
@@ -104,7 +104,7 @@ def test_the_shipped_detail_bundle_loads_and_serves_its_recorded_decisions(make_
     assert set(pairs) == {"container40/container40", "container40/container20",
                           "container40/spreader", "cell_guide/container40"}
     position, quaternion = _held_out(3)
-    answer = served.post("/v1/contact/batch", json=_batch(position, quaternion, "auto")).json()
+    answer = served.post("/v2/contact/batch", json=_batch(position, quaternion, "auto")).json()
     expected = {"oracle"} if pairs[GUIDE_PAIR]["serve"] == "exact-only" else {
         "oracle", "exact-part", "learned"}
     assert set(answer["predictor"]) <= expected
@@ -116,5 +116,5 @@ def test_a_bundle_of_compound_pairs_serves_every_mode_and_refuses_box_pairs_in_s
     assert set(modes["available"]) == {"exact", "single", "committee", "auto"}
     box = {"a": {"size": [2.0, 2.0, 2.0], "position": [0, 0, 0], "quaternion": IDENTITY},
            "b": {"size": [2.0, 2.0, 2.0], "position": [0, 0, 1.99], "quaternion": IDENTITY}}
-    assert served.post("/v1/contact", json=box | {"mode": "committee"}).status_code == 422
-    assert served.post("/v1/contact", json=box | {"mode": "auto"}).json()["predictor"] == "exact"
+    assert served.post("/v2/contact", json=box | {"mode": "committee"}).status_code == 422
+    assert served.post("/v2/contact", json=box | {"mode": "auto"}).json()["predictor"] == "exact"

@@ -1,6 +1,7 @@
 """Compound bodies through the HTTP API: the detailed scene is served; a pair or a batch that
-names a compound object is answered by the exact compound oracle with the body-level summary
-and the part contacts (ragged in batches, JSON and npz); the caps refuse with a 413."""
+names a compound object is answered by the exact compound oracle in the one answer shape: the
+body level (the summary, with the deepest part contact's type, features and parts) and the part
+contacts (ragged in batches, JSON and npz); the caps refuse with a 413."""
 import base64
 import io
 
@@ -34,21 +35,37 @@ def test_the_detailed_scene_serves_and_lists_its_compound_objects(detail):
     assert "container40" in scene["compound_objects"] and scene["objects"] == {}
 
 
-@pytest.mark.parametrize("mode", ["exact", "single"])
-def test_a_compound_pair_is_answered_by_the_oracle_with_its_part_contacts(detail, mode):
-    answer = detail.post("/v1/contact", json={
+def test_a_compound_pair_is_answered_by_the_oracle_with_its_part_contacts(detail):
+    answer = detail.post("/v2/contact", json={
         "a": _body("container40", [0, 0, 0]), "b": _body("container40", STACKED_AT),
-        "mode": mode}).json()
-    assert answer["predictor"] == "oracle" and answer["mode"] == mode
+        "mode": "exact"}).json()
+    assert answer["predictor"] == "oracle" and answer["mode"] == "exact"
     parts = load_scene("quay_crane_detail").body("container40").parts
     reference = compound_answer(parts, [0, 0, 0], IDENTITY, parts, STACKED_AT, IDENTITY)
     np.testing.assert_allclose(answer["depth"], reference.summary.depth[0], rtol=1e-12)
     np.testing.assert_allclose(answer["point"], reference.summary.point[0], atol=1e-12)
-    assert len(answer["contacts"]) == 40
+    assert answer["distance"] == -answer["depth"] and answer["closest_a"] is None
+    assert len(answer["contacts"]) == 40 == answer["cluster_size"]
     first = answer["contacts"][0]
     assert first["part_a"].startswith("casting_top_") and first["contact_type"] == "face-face"
     assert set(first) == {"part_a", "part_b", "point", "normal", "depth", "contact_type",
-                          "feature_a", "feature_b", "pressure"}
+                          "feature_a", "feature_b", "axis", "pressure"}
+    assert first["axis"] == -1  # a convex part (a casting's ring) has no box axis
+    assert set(first["feature_a"]) == {"id", "name", "kind"}
+    # the body level names the deepest part contact: the first
+    assert answer["contact_type"] == first["contact_type"]
+    assert answer["feature_a"] == {"part": first["part_a"], **first["feature_a"]}
+    assert answer["feature_b"] == {"part": first["part_b"], **first["feature_b"]}
+    assert [c["depth"] for c in answer["contacts"]] == sorted(
+        (c["depth"] for c in answer["contacts"]), reverse=True)
+
+
+def test_a_learned_mode_without_a_bundle_is_409_for_a_compound_pair_as_for_a_box_pair(detail):
+    body = {"a": _body("container40", [0, 0, 0]), "b": _body("container40", STACKED_AT),
+            "mode": "single"}
+    answer = assert_error(detail.post("/v2/contact", json=body), 409, "mode",
+                          "mode_unavailable")
+    assert answer["mode"] == "single"
 
 
 def _batch():
@@ -59,35 +76,42 @@ def _batch():
 
 
 def test_a_batch_answers_the_ragged_layout_in_json_and_npz_alike(detail):
-    as_json = detail.post("/v1/contact/batch", json=_batch()).json()
+    as_json = detail.post("/v2/contact/batch", json=_batch()).json()
     contacts = as_json["contacts"]
     assert as_json["n"] == 3 and contacts["offsets"] == [0, 40, 44, 44]
     assert contacts["part_b"][40:] == ["head_fl", "head_fr", "head_al", "head_ar"]
     assert as_json["colliding"] == [True, True, False]
-    binary = detail.post("/v1/contact/batch", json=_batch(),
+    assert as_json["cluster_size"] == [40, 4, 0]
+    assert as_json["feature_b"]["part"][:2] == [contacts["part_b"][0], contacts["part_b"][40]]
+    assert as_json["feature_b"]["part"][2] is None and as_json["distance"][2] is None
+    assert as_json["contact_type"][1] == contacts["contact_type"][40]
+    binary = detail.post("/v2/contact/batch", json=_batch(),
                          headers={"accept": "application/x-npz"})
     with np.load(io.BytesIO(binary.content), allow_pickle=False) as npz:
         np.testing.assert_array_equal(npz["contact_offsets"], contacts["offsets"])
         np.testing.assert_array_equal(npz["contact_depth"], contacts["depth"])
         assert npz["contact_part_b"].tolist() == contacts["part_b"]
-        assert npz["contact_type"].tolist() == contacts["contact_type"]
+        assert npz["contact_contact_type"].tolist() == contacts["contact_type"]
+        assert npz["contact_type"].tolist() == as_json["contact_type"]  # the body level's
+        assert npz["feature_b_part"].tolist() == [p or "" for p in as_json["feature_b"]["part"]]
+        assert npz["contact_feature_b_kind"].tolist() == contacts["feature_b"]["kind"]
 
 
 def test_part_contacts_over_the_caps_are_413_naming_the_cap(make_client):
     per_pose = make_client(scene="quay_crane_detail", max_part_contacts_per_pose=39)
-    answer = assert_error(per_pose.post("/v1/contact", json={
+    answer = assert_error(per_pose.post("/v2/contact", json={
         "a": _body("container40", [0, 0, 0]), "b": _body("container40", STACKED_AT)}), 413,
         error="too_many_part_contacts")
     assert "max_part_contacts_per_pose" in answer["message"]
     per_batch = make_client(scene="quay_crane_detail", max_part_contacts_per_batch=43)
-    answer = assert_error(per_batch.post("/v1/contact/batch", json=_batch()), 413,
+    answer = assert_error(per_batch.post("/v2/contact/batch", json=_batch()), 413,
                           error="too_many_part_contacts")
     assert "max_part_contacts_per_batch" in answer["message"]
 
 
 def test_an_unknown_object_in_the_detailed_scene_is_still_a_422(detail):
     body = {"a": _body("container45", [0, 0, 0]), "b": _body("container40", STACKED_AT)}
-    assert_error(detail.post("/v1/contact", json=body), 422, field="a.object")
+    assert_error(detail.post("/v2/contact", json=body), 422, field="a.object")
 
 
 def _inline_pair(parts):
@@ -100,7 +124,7 @@ def test_a_compound_body_given_inline_is_answered_and_its_mesh_becomes_its_hull(
     buffer = io.BytesIO()
     trimesh.creation.box(extents=(0.3, 0.3, 0.1)).export(buffer, file_type="stl")
     data = base64.b64encode(buffer.getvalue()).decode()
-    answer = client.post("/v1/contact", json=_inline_pair([
+    answer = client.post("/v2/contact", json=_inline_pair([
         {"name": "block", "box": {"size": [0.2, 0.2, 0.3], "centre": [0, 0, 0.1]}},
         {"name": "lid", "mesh": {"format": "stl", "data": data}}])).json()
     assert answer["predictor"] == "oracle"
@@ -120,7 +144,7 @@ def test_a_compound_body_given_inline_is_answered_and_its_mesh_becomes_its_hull(
 ])
 def test_a_bad_inline_part_is_a_422_naming_its_field(client, part, field, reason):
     body = _inline_pair([{"name": "block", "box": {"size": [0.2, 0.2, 0.1]}}, part])
-    answer = assert_error(client.post("/v1/contact", json=body), 422, field=field)
+    answer = assert_error(client.post("/v2/contact", json=body), 422, field=field)
     assert reason in answer["message"]
 
 

@@ -1,4 +1,5 @@
-"""POST /v1/contact: answers, and every kind of bad input (status code first)."""
+"""POST /v2/contact: answers in the one shape (a box is a body of one part), the gap within a
+margin, and every kind of bad input (status code first); the old paths answer 410."""
 from __future__ import annotations
 
 import math
@@ -10,8 +11,14 @@ from impactnet.models.box.exact import box_box
 from impactnet.models.geometry.rotations import euler_to_quaternion, quaternion_to_matrix
 from tests.service.conftest import PAIR, assert_error, pair
 
-FIELDS = {"colliding", "point", "normal", "depth", "contact_type", "feature_a", "feature_b",
-          "axis", "confidence", "predictor", "mode", "model_version"}
+#: Round-off allowed on a gap and its closest points (metres).
+GAP_ATOL_M = 1e-12
+
+FIELDS = {"colliding", "point", "normal", "depth", "distance", "closest_a", "closest_b",
+          "contact_type", "feature_a", "feature_b", "predictor", "confidence", "cluster_size",
+          "contacts", "mode", "model_version"}
+CONTACT_FIELDS = {"part_a", "part_b", "point", "normal", "depth", "contact_type", "feature_a",
+                  "feature_b", "axis", "pressure"}
 
 
 def _exact(body):
@@ -21,7 +28,7 @@ def _exact(body):
 
 
 def test_answer_matches_exact_solver(client):
-    response = client.post("/v1/contact", json=PAIR)
+    response = client.post("/v2/contact", json=PAIR)
     assert response.status_code == 200
     body = response.json()
     assert set(body) == FIELDS
@@ -31,11 +38,24 @@ def test_answer_matches_exact_solver(client):
     np.testing.assert_array_equal(body["normal"], expected.normal[0])
     assert body["depth"] == expected.depth[0]
     assert body["contact_type"] == expected.contact_type[0]
-    assert body["feature_a"] == {"id": int(expected.feature_a[0]), "name": "face +z",
-                                 "kind": "face"}
+    assert body["distance"] == -body["depth"]
+    assert body["closest_a"] is None and body["closest_b"] is None
+    assert body["feature_a"] == {"part": "box", "id": int(expected.feature_a[0]),
+                                 "name": "face +z", "kind": "face"}
     assert body["feature_b"]["id"] == int(expected.feature_b[0])
+    assert body["feature_b"]["part"] == "box"
     assert body["predictor"] == "exact" and body["mode"] == "exact"
-    assert body["confidence"] == 1.0
+    assert body["confidence"] == 1.0 and body["cluster_size"] == 1
+    # two boxes: one part contact, the body level's own values and the solver's axis
+    (contact,) = body["contacts"]
+    assert set(contact) == CONTACT_FIELDS
+    assert contact["part_a"] == contact["part_b"] == "box"
+    for key in ("point", "normal", "depth", "contact_type"):
+        assert contact[key] == body[key], key
+    assert contact["feature_a"] == {k: body["feature_a"][k] for k in ("id", "name", "kind")}
+    assert contact["feature_b"]["id"] == body["feature_b"]["id"]
+    assert contact["axis"] == int(expected.axis[0])
+    assert contact["pressure"] == expected.pressure[0]
     assert body["model_version"].startswith("exact-")
     assert response.headers["x-model-version"] == body["model_version"]
     assert response.headers["content-type"] == "application/json"
@@ -43,7 +63,7 @@ def test_answer_matches_exact_solver(client):
 
 @pytest.mark.parametrize("convention", ["zyx", "xyz"])
 def test_plain_float_euler_equals_models_rotations(convention):
-    from impactnet.service.codecs.pairs import euler_quaternion
+    from impactnet.service.codecs.pair import euler_quaternion
 
     angles = np.random.default_rng(0).uniform(-7, 7, size=(500, 3))
     ours = np.array([euler_quaternion(e.tolist(), convention) for e in angles])
@@ -52,8 +72,8 @@ def test_plain_float_euler_equals_models_rotations(convention):
 
 
 def test_single_equals_batch_row(client):
-    single = client.post("/v1/contact", json=PAIR).json()
-    batch = client.post("/v1/contact/batch", json={
+    single = client.post("/v2/contact", json=PAIR).json()
+    batch = client.post("/v2/contact/batch", json={
         "a_size": PAIR["a"]["size"], "a_position": [PAIR["a"]["position"]] * 2,
         "a_quaternion": PAIR["a"]["quaternion"], "b_size": PAIR["b"]["size"],
         "b_position": PAIR["b"]["position"], "b_euler": PAIR["b"]["euler"]}).json()
@@ -61,25 +81,57 @@ def test_single_equals_batch_row(client):
         assert batch[key][0] == batch[key][1]
         np.testing.assert_allclose(batch[key][0], single[key], rtol=0, atol=1e-12)
     assert batch["contact_type"][0] == single["contact_type"]
-    assert batch["axis"][0] == single["axis"]
+    assert batch["feature_a"]["name"][0] == single["feature_a"]["name"]
+    assert batch["contacts"]["offsets"] == [0, 1, 2]
+    assert batch["contacts"]["axis"][0] == single["contacts"][0]["axis"]
 
 
 def test_separated_pair_has_no_contact(client):
-    response = client.post("/v1/contact", json=pair(b_position=[10.0, 0.0, 0.0]))
+    response = client.post("/v2/contact", json=pair(b_position=[10.0, 0.0, 0.0]))
     assert response.status_code == 200
     body = response.json()
     assert body["colliding"] is False and body["contact_type"] == "none"
-    assert body["depth"] == 0.0 and body["feature_a"]["id"] == -1
-    assert body["feature_a"]["kind"] == "none"
+    assert body["depth"] == 0.0 and body["contacts"] == [] and body["cluster_size"] == 0
+    assert body["feature_a"] == {"part": None, "id": -1, "name": "none", "kind": "none"}
+    # no margin: no gap, no closest points
+    assert body["distance"] is None
+    assert body["closest_a"] is None and body["closest_b"] is None
+    assert np.linalg.norm(body["normal"]) == pytest.approx(1.0)  # the separating direction
+
+
+def test_a_pair_within_the_margin_answers_its_gap_and_closest_points(client):
+    apart = pair(b_position=[0.0, 0.0, 2.5], b_euler=[0.0, 0.0, 0.0])  # faces 0.5 m apart
+    body = client.post("/v2/contact", json=apart | {"margin": 1.0}).json()
+    assert body["colliding"] is False and body["contacts"] == []
+    assert body["distance"] == pytest.approx(0.5, abs=GAP_ATOL_M)
+    assert body["closest_a"][2] == pytest.approx(1.0, abs=GAP_ATOL_M)
+    assert body["closest_b"][2] == pytest.approx(1.5, abs=GAP_ATOL_M)
+    np.testing.assert_allclose(body["normal"], [0.0, 0.0, 1.0], atol=GAP_ATOL_M)
+    assert body["feature_a"]["part"] == body["feature_b"]["part"] == "box"
+    beyond = client.post("/v2/contact", json=apart | {"margin": 0.4}).json()
+    assert beyond["distance"] is None and beyond["closest_a"] is None
+
+
+@pytest.mark.parametrize("margin", [-0.1, 100.5, "1"])
+def test_a_margin_out_of_range_is_422(client, margin):
+    assert_error(client.post("/v2/contact", json=pair(margin=margin)), 422, "margin",
+                 "invalid_input")
+
+
+@pytest.mark.parametrize("old, new", [("/v1/contact", "/v2/contact"),
+                                      ("/v1/contact/batch", "/v2/contact/batch")])
+def test_the_old_paths_answer_410_naming_the_new_one(client, old, new):
+    body = assert_error(client.post(old, json=PAIR), 410, None, "moved")
+    assert body["new_path"] == new and new in body["message"]
 
 
 def test_orientations_agree(client):
     """quaternion, matrix and euler of the same rotation give the same answer."""
     q = euler_to_quaternion([0.05, 0.0, 0.0])[0]
-    answers = [client.post("/v1/contact", json=pair(b_euler=None, **{f"b_{k}": v})).json()
+    answers = [client.post("/v2/contact", json=pair(b_euler=None, **{f"b_{k}": v})).json()
                for k, v in (("quaternion", q.tolist()),
                             ("matrix", quaternion_to_matrix(q)[0].tolist()))]
-    answers.append(client.post("/v1/contact", json=PAIR).json())
+    answers.append(client.post("/v2/contact", json=PAIR).json())
     for other in answers[1:]:
         np.testing.assert_allclose(other["point"], answers[0]["point"], atol=1e-12)
         np.testing.assert_allclose(other["normal"], answers[0]["normal"], atol=1e-12)
@@ -87,9 +139,9 @@ def test_orientations_agree(client):
 
 
 def test_euler_convention_xyz(client):
-    zyx = client.post("/v1/contact", json=pair(b_euler=[0.05, 0.02, 0.0])).json()
+    zyx = client.post("/v2/contact", json=pair(b_euler=[0.05, 0.02, 0.0])).json()
     # a rotation about x then y: xyz [a, b, 0] = Rx(a) Ry(b), zyx [roll, pitch, 0] = Ry Rx
-    xyz = client.post("/v1/contact", json=pair(b_euler=[0.05, 0.02, 0.0],
+    xyz = client.post("/v2/contact", json=pair(b_euler=[0.05, 0.02, 0.0],
                                                 euler_convention="xyz")).json()
     assert xyz["point"] != zyx["point"]
 
@@ -97,9 +149,9 @@ def test_euler_convention_xyz(client):
 def test_scene_objects(client):
     body = {"a": {"object": "container40", "position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
             "b": {"object": "spreader", "position": [0, 0, 1.69], "euler": [0, 0, 0.01]}}
-    response = client.post("/v1/contact", json=body)
+    response = client.post("/v2/contact", json=body)
     assert response.status_code == 200
-    raw = client.post("/v1/contact", json={
+    raw = client.post("/v2/contact", json={
         "a": {"size": [12.192, 2.438, 2.591], "position": [0, 0, 0], "quaternion": [1, 0, 0, 0]},
         "b": {"size": [12.0, 2.35, 0.8], "position": [0, 0, 1.69], "euler": [0, 0, 0.01]}})
     assert response.json()["point"] == raw.json()["point"]
@@ -107,10 +159,10 @@ def test_scene_objects(client):
 
 
 def test_include_manifold_and_paper_angles(client):
-    response = client.post("/v1/contact", json=pair(include=["manifold", "paper_angles"]))
+    response = client.post("/v2/contact", json=pair(include=["manifold", "paper_angles"]))
     assert response.status_code == 200
     body = response.json()
-    manifold = body["manifold"]
+    manifold = body["contacts"][0]["manifold"]
     assert manifold["count"] == len(manifold["points"]) == len(manifold["depths"]) >= 1
     # the manifold is the library's (the incident face's clip, deepest first) and the point
     # is the library's centre of pressure, which need not be a mean of the manifold
@@ -121,20 +173,20 @@ def test_include_manifold_and_paper_angles(client):
     np.testing.assert_array_equal(manifold["depths"], expected.manifold_depths[0, :count])
     assert manifold["depths"] == sorted(manifold["depths"], reverse=True)
     np.testing.assert_array_equal(body["point"], expected.point[0])
+    # [point azimuth, point elevation, force azimuth, force elevation]
     angles = body["paper_angles"]
-    assert set(angles) == {"point_azimuth", "point_elevation", "force_azimuth",
-                           "force_elevation"}
-    assert math.isclose(angles["force_elevation"], math.pi / 2)  # normal +z in A's frame
-    separated = client.post("/v1/contact", json=pair(b_position=[9, 0, 0],
+    assert len(angles) == 4 and all(math.isfinite(v) for v in angles)
+    assert math.isclose(angles[3], math.pi / 2)  # normal +z in A's frame
+    separated = client.post("/v2/contact", json=pair(b_position=[9, 0, 0],
                                                       include=["paper_angles"])).json()
-    assert all(v is None for v in separated["paper_angles"].values())
+    assert separated["paper_angles"] is None
 
 
 def test_request_id_is_honoured_and_returned(client):
-    response = client.post("/v1/contact", json=PAIR, headers={"X-Request-ID": "sim-42.7"})
+    response = client.post("/v2/contact", json=PAIR, headers={"X-Request-ID": "sim-42.7"})
     assert response.status_code == 200
     assert response.headers["x-request-id"] == "sim-42.7"
-    fresh = client.post("/v1/contact", json=PAIR, headers={"X-Request-ID": "bad id\"x"})
+    fresh = client.post("/v2/contact", json=PAIR, headers={"X-Request-ID": "bad id\"x"})
     assert fresh.headers["x-request-id"] != "bad id" and len(fresh.headers["x-request-id"]) == 32
 
 
@@ -163,7 +215,7 @@ RAW_BAD = [
 
 @pytest.mark.parametrize("name,raw,field", RAW_BAD, ids=[r[0] for r in RAW_BAD])
 def test_raw_bad_bodies_are_422(client, name, raw, field):
-    response = client.post("/v1/contact", content=raw,
+    response = client.post("/v2/contact", content=raw,
                            headers={"Content-Type": "application/json"})
     assert_error(response, 422, field, "invalid_input")
 
@@ -212,38 +264,38 @@ BAD = [
 
 @pytest.mark.parametrize("name,changes,field", BAD, ids=[b[0] for b in BAD])
 def test_bad_input_is_422_naming_the_field(client, name, changes, field):
-    response = client.post("/v1/contact", json=pair(**changes))
+    response = client.post("/v2/contact", json=pair(**changes))
     body = assert_error(response, 422, field, "invalid_input")
     assert all(d["reason"] for d in body["detail"])
 
 
 def test_learned_modes_are_409_naming_the_mode(client):
     for mode in ("single", "committee", "auto"):
-        response = client.post("/v1/contact", json=pair(mode=mode))
+        response = client.post("/v2/contact", json=pair(mode=mode))
         body = assert_error(response, 409, "mode", "mode_unavailable")
         assert body["mode"] == mode and "bundle" in body["message"]
 
 
 def test_wrong_content_type_is_415(client):
-    response = client.post("/v1/contact", content=b"a=1",
+    response = client.post("/v2/contact", content=b"a=1",
                            headers={"Content-Type": "text/plain"})
     assert_error(response, 415, None, "unsupported_media_type")
 
 
 def test_invalid_utf8_is_malformed_json(client):
-    response = client.post("/v1/contact", content=b'{"a": "\xff\xfe"}',
+    response = client.post("/v2/contact", content=b'{"a": "\xff\xfe"}',
                            headers={"Content-Type": "application/json"})
     assert_error(response, 422, "body", "invalid_input")
 
 
 def test_unknown_object_without_scene(make_client):
     c = make_client(scene="")
-    response = c.post("/v1/contact", json=pair(a_size=None, a_object="cube"))
+    response = c.post("/v2/contact", json=pair(a_size=None, a_object="cube"))
     body = assert_error(response, 422, "a.object")
     assert "no scene" in body["detail"][0]["reason"]
-    assert c.post("/v1/contact", json=PAIR).status_code == 200
+    assert c.post("/v2/contact", json=PAIR).status_code == 200
 
 
 def test_method_and_path_errors_use_the_envelope(client):
-    assert_error(client.get("/v1/contact"), 405, None, "method_not_allowed")
+    assert_error(client.get("/v2/contact"), 405, None, "method_not_allowed")
     assert_error(client.get("/v1/nothing"), 404, None, "not_found")

@@ -75,7 +75,7 @@ def test_page_renders_every_operation_with_only_loopback_reachable(browser, serv
     dom = chromium.dump_dom(browser, served.url + page, net_log=net_log)
     text = chromium.visible_text(dom).lower()
     operations = _operations(served.port)
-    assert ("post", "/v1/contact/batch") in operations and ("get", "/healthz") in operations
+    assert ("post", "/v2/contact/batch") in operations and ("get", "/healthz") in operations
     missing = [(method, path) for method, path in operations
                if not re.search(rf"\b{method} {re.escape(path)}(?![\w/])", text)]
     assert not missing, f"{page} rendered without {missing}: {text[:500]!r}"

@@ -3,16 +3,15 @@
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import json
 import threading
 
 import httpx
 import pytest
 
-from impactnet.models import load_predictor
+from impactnet.models.box.exact import box_box
 from impactnet.service.app import create_app
-from tests.service.conftest import PAIR, assert_error, test_settings
+from tests.service.conftest import PAIR, assert_error, serve_exact_with, test_settings
 
 
 async def _call(app, method: str, path: str, chunks: list[bytes], headers=()):
@@ -48,7 +47,7 @@ async def _ready_app(**overrides):
     return app
 
 
-@pytest.mark.parametrize("path", ["/v1/contact", "/v1/contact/batch"])
+@pytest.mark.parametrize("path", ["/v2/contact", "/v2/contact/batch"])
 def test_streamed_body_over_the_limit_is_413_and_its_rest_is_dropped_unkept(path):
     async def main():
         app = await _ready_app(max_body_bytes=10 * 1024)
@@ -69,7 +68,7 @@ def test_a_declared_oversized_body_is_read_and_dropped_before_its_413():
         app = await _ready_app(max_body_bytes=10 * 1024)
         chunks = [b" " * 1024] * 100
         status, headers, body, consumed = await _call(
-            app, "POST", "/v1/contact/batch", chunks,
+            app, "POST", "/v2/contact/batch", chunks,
             [("content-type", "application/json"), ("content-length", str(100 * 1024))])
         return status, headers, consumed, app.state.runtime.budget.peak
 
@@ -81,7 +80,7 @@ def test_a_declared_oversized_body_is_read_and_dropped_before_its_413():
 def test_an_oversized_body_that_waits_for_100_continue_is_413_unread():
     async def main():
         app = await _ready_app(max_body_bytes=10 * 1024)
-        return await _call(app, "POST", "/v1/contact/batch", [b" " * 1024] * 100,
+        return await _call(app, "POST", "/v2/contact/batch", [b" " * 1024] * 100,
                            [("content-type", "application/json"),
                             ("content-length", str(100 * 1024)), ("expect", "100-continue")])
 
@@ -92,7 +91,7 @@ def test_an_oversized_body_that_waits_for_100_continue_is_413_unread():
 def test_declared_content_length_over_the_limit_is_413_unread():
     async def main():
         app = await _ready_app(max_body_bytes=10 * 1024)
-        return await _call(app, "POST", "/v1/contact/batch", [b"{}"],
+        return await _call(app, "POST", "/v2/contact/batch", [b"{}"],
                            [("content-type", "application/json"),
                             ("content-length", str(10**9))])
 
@@ -104,14 +103,14 @@ def test_declared_content_length_over_the_limit_is_413_unread():
 
 def test_testclient_oversize_body_is_413(make_client):
     c = make_client(max_body_bytes=2048)
-    response = c.post("/v1/contact/batch", content=b"[" + b"0," * 5000 + b"0]",
+    response = c.post("/v2/contact/batch", content=b"[" + b"0," * 5000 + b"0]",
                       headers={"Content-Type": "application/json"})
     assert_error(response, 413, None, "body_too_large")
-    assert c.post("/v1/contact", json=PAIR).status_code == 200
+    assert c.post("/v2/contact", json=PAIR).status_code == 200
 
 
 class _Gate:
-    """A predictor that waits for a signal, to keep a request in flight."""
+    """An exact solver that waits for a signal, to keep a request in flight."""
 
     mode = "exact"
 
@@ -124,12 +123,7 @@ class _Gate:
             raise RuntimeError("a deliberate bug")
         self.started.set()
         self.release.wait(10)
-        return load_predictor("exact")(*args)
-
-
-def _swap_predictor(app, predictor) -> None:
-    runtime = app.state.runtime
-    runtime.install(dataclasses.replace(runtime.serving, predictors={"exact": predictor}))
+        return box_box(*args)
 
 
 #: Two cube pairs: a batch, so that its predictor runs in a worker thread, not on the loop.
@@ -140,8 +134,8 @@ SMALL_BATCH = {"a_size": [2, 2, 2], "a_position": [[0, 0, 0]] * 2, "a_quaternion
 async def hold_a_slot(app, client) -> tuple[_Gate, asyncio.Task]:
     """A batch that holds a compute slot until ``gate.release`` is set; its task."""
     gate = _Gate()
-    _swap_predictor(app, gate)
-    held = asyncio.create_task(client.post("/v1/contact/batch", json=SMALL_BATCH))
+    serve_exact_with(app, gate)
+    held = asyncio.create_task(client.post("/v2/contact/batch", json=SMALL_BATCH))
     await asyncio.to_thread(gate.started.wait, 10)
     return gate, held
 
@@ -152,7 +146,7 @@ def test_concurrency_limit_is_503_with_retry_after():
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
             gate, first = await hold_a_slot(app, client)
-            second = await client.post("/v1/contact", json=PAIR)
+            second = await client.post("/v2/contact", json=PAIR)
             probes = [await client.get(p) for p in ("/healthz", "/readyz", "/metrics")]
             gate.release.set()
             return await first, second, probes
@@ -166,8 +160,8 @@ def test_concurrency_limit_is_503_with_retry_after():
 
 def test_a_bug_is_a_json_500_with_request_id(make_client, caplog):
     c = make_client()
-    _swap_predictor(c.app, _Gate(failing=True))
-    response = c.post("/v1/contact", json=PAIR, headers={"X-Request-ID": "bug-1"})
+    serve_exact_with(c.app, _Gate(failing=True))
+    response = c.post("/v2/contact", json=PAIR, headers={"X-Request-ID": "bug-1"})
     body = assert_error(response, 500, None, "internal_error")
     assert body["request_id"] == "bug-1" and response.headers["x-request-id"] == "bug-1"
     assert any("a deliberate bug" in (r.exc_text or "") or r.exc_info for r in caplog.records)
@@ -192,14 +186,14 @@ def test_readyz_is_503_while_loading_then_200(monkeypatch):
         loading = c.get("/readyz")
         assert loading.status_code == 503 and "loading" in loading.json()["reason"]
         assert loading.headers["retry-after"] == "1"
-        assert_error(c.post("/v1/contact", json=PAIR), 503, None, "not_ready")
+        assert_error(c.post("/v2/contact", json=PAIR), 503, None, "not_ready")
         release.set()
         for _ in range(200):
             if c.get("/readyz").status_code == 200:
                 break
             threading.Event().wait(0.02)
         assert c.get("/readyz").status_code == 200
-        assert c.post("/v1/contact", json=PAIR).status_code == 200
+        assert c.post("/v2/contact", json=PAIR).status_code == 200
 
 
 def test_readyz_reports_a_failed_load(make_client):
@@ -208,7 +202,7 @@ def test_readyz_reports_a_failed_load(make_client):
     assert response.status_code == 503
     assert "loading failed" in response.json()["reason"]
     assert "no_such_scene" in response.json()["reason"]
-    assert_error(c.post("/v1/contact", json=PAIR), 503, None, "not_ready")
+    assert_error(c.post("/v2/contact", json=PAIR), 503, None, "not_ready")
 
 
 def test_draining_turns_readyz_503_but_still_serves(make_client):
@@ -217,7 +211,7 @@ def test_draining_turns_readyz_503_but_still_serves(make_client):
     c.app.state.runtime.begin_drain()
     response = c.get("/readyz")
     assert response.status_code == 503 and "draining" in response.json()["reason"]
-    assert c.post("/v1/contact", json=PAIR).status_code == 200  # in-flight / late: served
+    assert c.post("/v2/contact", json=PAIR).status_code == 200  # in-flight / late: served
 
 
 def test_a_missing_bundle_is_refused_with_the_reason(make_client):

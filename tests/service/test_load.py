@@ -46,7 +46,7 @@ def test_sixteen_clients_twenty_seconds_with_a_reload(tmp_path):
             if kind == "single":
                 body = ON_SLAB | ({"mode": mode} if mode else {})
                 status, headers, data = client.request(
-                    "POST", "/v1/contact", orjson.dumps(body),
+                    "POST", "/v2/contact", orjson.dumps(body),
                     {"Content-Type": "application/json"})
                 answer = orjson.loads(data)
                 assert status == 200, answer

@@ -44,11 +44,11 @@ def test_health_and_ready(client):
 def test_metrics_count_requests_pairs_and_latency(make_client):
     c = make_client()
     for _ in range(3):
-        assert c.post("/v1/contact", json=PAIR).status_code == 200
+        assert c.post("/v2/contact", json=PAIR).status_code == 200
     batch = {"a_size": [2, 2, 2], "a_position": [[0, 0, 0]] * 5, "a_quaternion": [1, 0, 0, 0],
              "b_size": [2, 2, 2], "b_position": [0, 0, 1.9], "b_quaternion": [1, 0, 0, 0]}
-    assert c.post("/v1/contact/batch", json=batch).status_code == 200
-    assert c.post("/v1/contact", json={"a": {}}).status_code == 422
+    assert c.post("/v2/contact/batch", json=batch).status_code == 200
+    assert c.post("/v2/contact", json={"a": {}}).status_code == 422
     assert c.get("/v1/unknown").status_code == 404
     response = c.get("/metrics")
     assert response.status_code == 200
@@ -60,15 +60,15 @@ def test_metrics_count_requests_pairs_and_latency(make_client):
         assert match, pattern
         return float(match.group(1))
 
-    assert value('impactnet_http_requests_total{method="POST",route="/v1/contact",'
+    assert value('impactnet_http_requests_total{method="POST",route="/v2/contact",'
                  'status="200"}') == 3
-    assert value('impactnet_http_requests_total{method="POST",route="/v1/contact",'
+    assert value('impactnet_http_requests_total{method="POST",route="/v2/contact",'
                  'status="422"}') == 1
     assert value('impactnet_http_requests_total{method="GET",route="<unmatched>",'
                  'status="404"}') == 1
     assert value('impactnet_pairs_scored_total{mode="exact",predictor="exact"}') == 8
     assert value('impactnet_http_request_duration_seconds_count{method="POST",'
-                 'route="/v1/contact"}') == 4
+                 'route="/v2/contact"}') == 4
     assert value("impactnet_batch_pairs_count") == 1
     assert value("impactnet_ready") == 1
     assert value("impactnet_auto_fallback_rate") == 0
@@ -79,9 +79,10 @@ def test_docs_and_openapi(client):
     assert client.get("/docs").status_code == 200
     schema = client.get("/openapi.json").json()
     paths = schema["paths"]
-    assert {"/v1/contact", "/v1/contact/batch", "/v1/models", "/healthz", "/readyz",
+    assert {"/v2/contact", "/v2/contact/batch", "/v1/models", "/healthz", "/readyz",
             "/metrics"} <= set(paths)
-    batch = paths["/v1/contact/batch"]["post"]
+    assert not {"/v1/contact", "/v1/contact/batch"} & set(paths)  # 410, not documented
+    batch = paths["/v2/contact/batch"]["post"]
     assert set(batch["requestBody"]["content"]) == {"application/json", "application/x-npz"}
     assert "BatchRequest" in schema["components"]["schemas"]
     assert "Binary layout" in batch["description"]

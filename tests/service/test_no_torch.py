@@ -23,7 +23,7 @@ def test_app_import_and_answer_without_torch():
         "from impactnet.service.settings import Settings\n"
         "app = impactnet.service.app.create_app(Settings(load_in_background=False))\n"
         "with TestClient(app) as c:\n"
-        "    r = c.post('/v1/contact', json={'a': {'object': 'cube', 'position': [0, 0, 0],"
+        "    r = c.post('/v2/contact', json={'a': {'object': 'cube', 'position': [0, 0, 0],"
         " 'quaternion': [1, 0, 0, 0]}, 'b': {'object': 'cube', 'position': [0, 0, 1.9],"
         " 'quaternion': [1, 0, 0, 0]}})\n"
         "    assert r.status_code == 200, r.text\n"

@@ -29,7 +29,7 @@ def test_started_and_queried(server):
 
 def test_oversize_content_length_is_refused_before_the_body_is_sent(server):
     with socket.create_connection(("127.0.0.1", server.port), timeout=5) as sock:
-        sock.sendall(b"POST /v1/contact/batch HTTP/1.1\r\nHost: x\r\n"
+        sock.sendall(b"POST /v2/contact/batch HTTP/1.1\r\nHost: x\r\n"
                      b"Content-Type: application/json\r\nContent-Length: 1000000000\r\n\r\n")
         started = time.monotonic()
         reply = b""

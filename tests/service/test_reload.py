@@ -43,7 +43,7 @@ def admin(files, tmp_path):
 
 
 def _version(client) -> str:
-    response = client.post("/v1/contact", json=ON_SLAB)
+    response = client.post("/v2/contact", json=ON_SLAB)
     assert response.status_code == 200
     assert response.headers["x-model-version"] == response.json()["model_version"]
     return response.json()["model_version"]
@@ -117,7 +117,7 @@ def test_reload_from_an_exact_only_server(files):
     settings = test_settings(scene=str(files["scene"]), admin_token=TOKEN)  # bundle "none"
     with TestClient(create_app(settings)) as c:
         assert c.get("/v1/models").json()["modes"]["default"] == "exact"
-        assert_error(c.post(URL := "/v1/contact", json=ON_SLAB | {"mode": "committee"}), 409)
+        assert_error(c.post(URL := "/v2/contact", json=ON_SLAB | {"mode": "committee"}), 409)
         body = assert_error(c.post(RELOAD, headers=AUTH), 409, "bundle", "reload_failed")
         assert body["step"] == "resolve" and "no bundle path is configured" in body["message"]
         response = c.post(RELOAD, json={"bundle": str(files["v2"])}, headers=AUTH)
@@ -162,7 +162,7 @@ def test_corrupting_the_configured_folder_keeps_the_loaded_bundle(admin):
     body = assert_error(admin.post(RELOAD, headers=AUTH), 422, "bundle", "reload_failed")
     assert body["step"] == "read" and "sha-256 differs" in body["message"].lower()
     assert _version(admin) == "svc-v1"
-    assert admin.post("/v1/contact", json=ON_SLAB | {"mode": "single"}).status_code == 200
+    assert admin.post("/v2/contact", json=ON_SLAB | {"mode": "single"}).status_code == 200
 
 
 @pytest.mark.parametrize("content,headers,status", [

@@ -1,6 +1,6 @@
 """Serving state: the service reads the current version of a bundle store."""
-from impactnet.models.bundle.format import read_bundle
 from impactnet.models.bundle.store import VERSIONS, set_current
+from impactnet.models.learned.bundle_loader import read_bundle
 from impactnet.service.state import read_for_scene
 from tests.models.bundle.test_store import _store
 

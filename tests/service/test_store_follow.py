@@ -74,7 +74,7 @@ def wait_for(predicate, timeout: float = FOLLOW_WAIT_S):
 
 def served(client) -> str:
     """The version that answers a contact, after checking that header and body agree."""
-    response = client.post("/v1/contact", json=ON_SLAB | {"mode": "committee"})
+    response = client.post("/v2/contact", json=ON_SLAB | {"mode": "committee"})
     assert response.status_code == 200, response.text
     assert response.headers["x-model-version"] == response.json()["model_version"]
     return response.json()["model_version"]
@@ -125,7 +125,7 @@ def test_every_request_carries_one_version_while_the_fleet_switches(scene, store
             deadline = time.monotonic() + FOLLOW_WAIT_S
             while version not in seen and time.monotonic() < deadline:
                 seen.add(served(client))
-                response = client.post("/v1/contact/batch", json=batch)
+                response = client.post("/v2/contact/batch", json=batch)
                 assert response.status_code == 200, response.text
                 answer = response.json()
                 assert answer["model_version"] == response.headers["x-model-version"]
@@ -307,8 +307,8 @@ def test_a_server_process_follows_the_store_and_exits_cleanly(scene, store):
 
 
 @pytest.mark.parametrize("path,method,status", [
-    ("/v1/contact", "post", 200), ("/v1/models", "get", 200), ("/healthz", "get", 200),
-    ("/metrics", "get", 200), ("/v1/nowhere", "get", 404), ("/v1/contact", "get", 405),
+    ("/v2/contact", "post", 200), ("/v1/models", "get", 200), ("/healthz", "get", 200),
+    ("/metrics", "get", 200), ("/v1/nowhere", "get", 404), ("/v2/contact", "get", 405),
 ])
 def test_every_answer_names_its_replica(make_client, path, method, status):
     client = make_client(replica_name="replica-7")

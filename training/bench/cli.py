@@ -6,21 +6,26 @@
     impactnet bench compound [--quick] [--out DIR] [--plot PNG] [--seed 1]
     impactnet bench hostile [--quick] [--out DIR] [--scene quay_crane_detail]
     impactnet bench speed [--quick] [--out DIR] [--seed 0] [--scene quay_crane]
+    impactnet bench frame [--quick] [--out DIR] [--plot PNG] [--seed 0] [--no-http]
+                          [--threads N]
 
 The first form measures the exact solver, python-fcl's Box-Box, the paper's polygon method at
 each grid size and the learned predictors (``models.load_predictor``; "not available: <reason>"
 while there is no bundle) on the scene's first-contact poses and the paper's Figure 2 case,
 with a "vs MuJoCo" column (every method against MuJoCo's box-box and a grid centre of pressure,
-:mod:`impactnet.training.bench.vs_mujoco`; noted as not available without the dev extra's mujoco),
-and writes ``results.md``, ``results.json``, ``pareto.png``, ``polygon_grid.png`` and
+:mod:`impactnet.training.bench.accuracy.vs_mujoco`; noted as not available without the dev extra's
+mujoco), and writes ``results.md``, ``results.json``, ``pareto.png``, ``polygon_grid.png`` and
 ``figure2_tilt.png`` into ``--out`` (the Markdown is also printed). See
 :mod:`impactnet.training.bench`. The second form is the exact solver's own benchmark
-(:mod:`impactnet.training.bench.exact`). The third is the compound bodies' benchmark: the
+(:mod:`impactnet.training.bench.exact.vs_fcl`). The third is the compound bodies' benchmark: the
 exact compound oracle's cost against detail next to FCL and MuJoCo, with issue #20's goals
-(:mod:`impactnet.training.bench.compound_detail`). The first form ends with the speed section
+(:mod:`impactnet.training.bench.compound.detail`). The first form ends with the speed section
 (issue #32): box pairs against MuJoCo called from Python and the per-stage profile
 (:mod:`impactnet.training.bench.speed`); ``speed`` runs that section alone and writes
-``speed.md`` and ``speed.json`` into ``--out``.
+``speed.md`` and ``speed.json`` into ``--out``. ``frame`` is issue #34's benchmark of a frame
+in one call (:mod:`impactnet.training.bench.frame`): its scaling from 10 to 10,000 bodies and
+its speed against MuJoCo in process and over HTTP; it writes ``frame.md``, ``frame.json`` and
+the scaling figure.
 
 ``impactnet/cli.py`` calls :func:`add_arguments` on its ``bench`` subparser and :func:`run`
 with the parsed arguments. Without that wiring: ``python -m impactnet.training.bench.cli [...]``.
@@ -57,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scene", default=None,
                         help="scene name or TOML path (default quay_crane)")
     parser.add_argument("--http", action="store_true",
-                        help="also measure /v1/contact and /v1/contact/batch through a server "
+                        help="also measure /v2/contact and /v2/contact/batch through a server "
                              "started on 127.0.0.1 (a free port) and stopped at the end")
     parser.add_argument("--grids", type=_grids, default=None,
                         help="polygon grid sizes n, comma-separated (default 1,2,4,8,16,32,64)")
@@ -103,7 +108,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     moe.add_argument("--out", metavar="DIR", help="write moe.md, moe.json and the plot there")
     moe.add_argument("--plot", metavar="PNG", help="the plot's path (default: in --out)")
     moe.add_argument("--http", action="store_true", help="also issue #21's HTTP goals: a "
-                     "server on 127.0.0.1 with the scene, /v1/contact and a 100k npz batch")
+                     "server on 127.0.0.1 with the scene, /v2/contact and a 100k npz batch")
     hostile = sub.add_parser(
         "hostile", help="what the hostile probe's requests cost a replica (issue #31)",
         description="Each hostile reproducer (inline geometry, compound batches that amplify, "
@@ -127,6 +132,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        f"(default {DEFAULT_OUT})")
     speed.add_argument("--seed", type=int, default=0, help="pose seed (default 0)")
     speed.add_argument("--scene", default="quay_crane", help="scene name or TOML path")
+    frame = sub.add_parser(
+        "frame", help="a frame in one call (issue #34): scaling, and speed against MuJoCo in "
+                      "process and over HTTP",
+        description="answer_frame on yards of 10 to 10,000 bodies (and its broadphase alone, "
+                    "with a fit), then one 200-container yard against MuJoCo's mj_collision "
+                    "called from Python, in process and over POST /v2/frame (npz) through a "
+                    "server started on 127.0.0.1, with the stage profiles (a few minutes; "
+                    "--quick: well under a minute).")
+    frame.add_argument("--quick", action="store_true", help="the smoke plan")
+    frame.add_argument("--out", default=DEFAULT_OUT, help="folder of frame.md and frame.json "
+                       f"(default {DEFAULT_OUT})")
+    frame.add_argument("--plot", metavar="PNG", help="the scaling figure's path (default: "
+                       "frame_scaling.png in --out)")
+    frame.add_argument("--seed", type=int, default=0, help="yard seed (default 0)")
+    frame.add_argument("--no-http", dest="http", action="store_false",
+                       help="leave out the HTTP measurement")
+    frame.add_argument("--threads", type=int, default=None, help="the compiled kernels' "
+                       "threads (default 1, as MuJoCo's collision)")
     decide = sub.add_parser(
         "decide", help="per pair of a box scene: exact-only or learned, by issue #21's rule",
         description="Per pair of a box scene: the exact solver and the bundle's auto mode "
@@ -150,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the benchmark (or ``bench exact``); 0 on success."""
     _pin_single_thread()
     if getattr(args, "bench_command", None) == "compound":
-        from impactnet.training.bench.compound_detail import run as run_compound
+        from impactnet.training.bench.compound.detail import run as run_compound
 
         command = "impactnet bench compound" + (" --quick" if args.quick else "") + (
             f" --out {args.out}" if args.out else "") + (
@@ -161,25 +184,25 @@ def run(args: argparse.Namespace) -> int:
     if getattr(args, "bench_command", None) == "moe":
         from dataclasses import replace
 
-        from impactnet.training.bench.moe import QUICK as MOE_QUICK
-        from impactnet.training.bench.moe import MoeConfig
-        from impactnet.training.bench.moe import run as run_moe
+        from impactnet.training.bench.learned.moe import QUICK as MOE_QUICK
+        from impactnet.training.bench.learned.moe import MoeConfig
+        from impactnet.training.bench.learned.moe import run as run_moe
 
         config = replace(MOE_QUICK if args.quick else MoeConfig(), scene=args.scene,
                          bundle=args.bundle, data=args.data, http=args.http)
         run_moe(config, args.out, args.plot)
         return 0
     if getattr(args, "bench_command", None) == "hostile":
-        from impactnet.training.bench.hostile import run as run_hostile
+        from impactnet.training.bench.http.hostile import run as run_hostile
 
         run_hostile(quick=args.quick, out=args.out, scene=args.scene)
         return 0
     if getattr(args, "bench_command", None) == "decide":
         from dataclasses import replace
 
-        from impactnet.training.bench.decide import QUICK as DECIDE_QUICK
-        from impactnet.training.bench.decide import DecideConfig
-        from impactnet.training.bench.decide import run as run_decide
+        from impactnet.training.bench.learned.decide import QUICK as DECIDE_QUICK
+        from impactnet.training.bench.learned.decide import DecideConfig
+        from impactnet.training.bench.learned.decide import run as run_decide
 
         config = replace(DECIDE_QUICK if args.quick else DecideConfig(), scene=args.scene,
                          bundle=args.bundle, seed=args.seed)
@@ -190,8 +213,22 @@ def run(args: argparse.Namespace) -> int:
 
         return run_speed(quick=args.quick, out=Path(args.out), seed=args.seed,
                          scene=args.scene)
+    if getattr(args, "bench_command", None) == "frame":
+        from impactnet.training.bench.frame.section import DEFAULT_THREADS
+        from impactnet.training.bench.frame.section import run as run_frame
+
+        command = "impactnet bench frame" + (" --quick" if args.quick else "") + (
+            f" --out {args.out}" if args.out != DEFAULT_OUT else "") + (
+            f" --plot {args.plot}" if args.plot else "") + (
+            f" --seed {args.seed}" if args.seed else "") + (
+            "" if args.http else " --no-http") + (
+            f" --threads {args.threads}" if args.threads is not None else "")
+        return run_frame(quick=args.quick, out=Path(args.out),
+                         plot=Path(args.plot) if args.plot else None, seed=args.seed,
+                         http=args.http, threads=args.threads or DEFAULT_THREADS,
+                         command=command)
     if getattr(args, "bench_command", None) == "exact":
-        from impactnet.training.bench.exact import run as run_exact
+        from impactnet.training.bench.exact.vs_fcl import run as run_exact
 
         return run_exact(quick=args.quick, json_path=args.json, seed=args.seed,
                          baseline=args.baseline)

@@ -13,8 +13,7 @@
   horizontal, their common normal is vertical: the contact normal is A's edge x B's edge.
 
 Both return the dict layout of :func:`impactnet.models.geometry.poses.first_contact_poses` (six pose
-arrays,
-quaternions (w, x, y, z) with w >= 0, and ``push_depth``), plus their own parameters.
+arrays, quaternions (w, x, y, z) with w >= 0, and ``push_depth``), plus their own parameters.
 """
 from __future__ import annotations
 

@@ -9,9 +9,10 @@ Per method and pose set (:func:`measure_method`):
   full plan); python-fcl loops take an evenly spread subsample whose size is reported as the
   N measured. Nothing is extrapolated.
 * Errors against the exact solver's answers for the same poses
-(:mod:`impactnet.training.bench.errors`).
+(:mod:`impactnet.training.bench.accuracy.errors`).
 * Errors against independent references, MuJoCo's box-box and the grid centre of pressure
-  (:mod:`impactnet.training.bench.vs_mujoco`), on at most ``mujoco_poses`` of the scored poses.
+  (:mod:`impactnet.training.bench.accuracy.vs_mujoco`), on at most ``mujoco_poses`` of the scored
+  poses.
 
 Ratios to the exact solver use the exact solver's figures from the same run and pose set:
 ``time / exact time`` at N = 1, and per pair at the throughput N (exact at its own N).
@@ -23,9 +24,9 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from impactnet.training.bench import errors as er
-from impactnet.training.bench import polygon as pg
+from impactnet.training.bench.accuracy import errors as er
 from impactnet.training.bench.methods import LEARNED, Answer, Method
+from impactnet.training.bench.paper import polygon as pg
 from impactnet.training.bench.speed.section import QUICK_SPEED, SpeedPlan
 from impactnet.training.bench.timing import median_per_call, median_repeated
 
@@ -51,8 +52,8 @@ class BenchConfig:
     learned: tuple[str, ...] = LEARNED  # load_predictor names
     bundle: str | None = None  # learned bundle folder; None = the shipped default
     http: bool = False  # also measure through the HTTP service
-    http_requests: int = 2_000  # /v1/contact requests per mode (after warm-up)
-    http_batch_repeats: int = 5  # timed /v1/contact/batch calls per mode
+    http_requests: int = 2_000  # /v2/contact requests per mode (after warm-up)
+    http_batch_repeats: int = 5  # timed /v2/contact/batch calls per mode
     mujoco_poses: int = 5_000  # scored poses compared with MuJoCo per method (0: no column)
     # the speed section against MuJoCo from Python and the stage profile; None: left out
     speed: SpeedPlan | None = SpeedPlan()
@@ -85,7 +86,7 @@ class Row:
     n1_vs_exact: float | None = None  # us_n1 / exact's us_n1
     per_pair_vs_exact: float | None = None  # us_per_pair / exact's us_per_pair
     info: dict = field(default_factory=dict)  # method info and diagnostics
-    # impactnet.training.bench.vs_mujoco.column_summary(); None: not measured
+    # impactnet.training.bench.accuracy.vs_mujoco.column_summary(); None: not measured
     vs_mujoco: dict | None = None
 
     def to_dict(self) -> dict:
@@ -101,7 +102,8 @@ def _loop_size(method: Method, poses, config: BenchConfig) -> int:
 
 
 def _variant_errors(answer: Answer, reference: Answer, scale) -> dict:
-    """Error summaries of each polygon reduction (impactnet.training.bench.polygon.VARIANTS)."""
+    """Error summaries of each polygon reduction
+    (:data:`impactnet.training.bench.paper.polygon.VARIANTS`)."""
     out = {}
     for name in pg.VARIANTS:
         point, normal = answer.point.copy(), answer.normal.copy()
@@ -128,7 +130,8 @@ def measure_method(method: Method, poses, reference: Answer, config: BenchConfig
 
     ``tolerance``: the scene's accuracy as (normal degrees, point per cent of the shortest
     edge), for the "within tolerance" share; None leaves it out. ``mujoco``: the pose set's
-    :class:`impactnet.training.bench.vs_mujoco.MujocoColumn`, or None for no "vs MuJoCo" column.
+    :class:`impactnet.training.bench.accuracy.vs_mujoco.MujocoColumn`, or None for no "vs MuJoCo"
+    column.
     """
     row = Row(method.name, method.family, poses.name, "ok", set_size=len(poses),
               info=dict(method.info))

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from impactnet.training.bench import polygon as pg
+from impactnet.training.bench.paper import polygon as pg
 
 #: The learned predictors, by their ``models.load_predictor`` names.
 LEARNED = ("single", "committee", "auto")
@@ -118,8 +118,8 @@ def learned_bundle(bundle) -> tuple:
     ``bundle``: a bundle folder or a store (its ``current``), read with its checksums verified
     (:func:`lift_decisions`).
     """
-    from impactnet.models.bundle.format import read_bundle
     from impactnet.models.bundle.store import resolve_bundle
+    from impactnet.models.learned.bundle_loader import read_bundle
 
     served = read_bundle(resolve_bundle(bundle))
     recorded = {key: pair.serve if pair.decision is not None else None
@@ -197,7 +197,7 @@ def fcl_box_method() -> Method:
 
 def polygon_method(n: int) -> Method:
     """The paper's polygon method at grid size ``n`` (see
-    :mod:`impactnet.training.bench.polygon`)."""
+    :mod:`impactnet.training.bench.paper.polygon`)."""
     try:
         method = pg.PolygonMethod(pg.PolygonConfig(n))
     except ImportError as exc:

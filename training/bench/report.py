@@ -4,18 +4,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-DASH = "–"
+from impactnet.training.bench.markdown import DASH, machine_line, significant
+
 #: Pose set titles in the report.
 SET_TITLES = {"scene": "Scene first contacts", "figure2": "Figure 2 hard case"}
-
-
-def _g(x, digits: int = 3) -> str:
-    """A number with ``digits`` significant digits; a dash for None."""
-    if x is None:
-        return DASH
-    if x == 0:
-        return "0"
-    return f"{x:.{digits}g}" if abs(x) < 10 ** digits else f"{x:,.0f}"
 
 
 def _ratio(x) -> str:
@@ -23,7 +15,7 @@ def _ratio(x) -> str:
 
 
 def _pair(a, b) -> str:
-    return f"{_g(a)} / {_g(b)}"
+    return f"{significant(a)} / {significant(b)}"
 
 
 def method_table(rows: list[dict], pose_set: str) -> str:
@@ -41,8 +33,8 @@ def method_table(rows: list[dict], pose_set: str) -> str:
         accuracy, within = (DASH if e[k] is None else f"{100 * e[k]:.2f} %"
                             for k in ("type_accuracy", "within_tolerance"))
         lines.append(
-            f"| {r['method']} | {_g(r['us_n1'])} | {_ratio(r['n1_vs_exact'])} | {n} | "
-            f"{r['pairs_per_s']:,.0f} | {_g(r['us_per_pair'])} | "
+            f"| {r['method']} | {significant(r['us_n1'])} | {_ratio(r['n1_vs_exact'])} | {n} | "
+            f"{r['pairs_per_s']:,.0f} | {significant(r['us_per_pair'])} | "
             f"{_ratio(r['per_pair_vs_exact'])} | "
             f"{_pair(e['normal_deg_median'], e['normal_deg_p99'])} | "
             f"{_pair(e['point_pct_median'], e['point_pct_p99'])} | {accuracy} | {within} | "
@@ -58,7 +50,7 @@ def _mujoco_within(summary: dict | None) -> str:
 
 def mujoco_table(rows: list[dict], pose_set: str) -> str:
     """Each method against MuJoCo and the grid centre of pressure
-    (impactnet.training.bench.vs_mujoco)."""
+    (impactnet.training.bench.accuracy.vs_mujoco)."""
     lines = ["| method | poses compared | within 1° & 2 % | normal error ° median / p99 "
              "| point error % median / p99 | MuJoCo edge-edge | missed |",
              "|---|---:|---:|---:|---:|---:|---:|"]
@@ -110,10 +102,11 @@ def polygon_table(paper: dict) -> str:
         within = DASH if b["within_cell_diagonal"] is None else \
             f"{100 * b['within_cell_diagonal']:.1f} %"
         lines.append(
-            f"| {b['pose_set']} | {b['n']} | {b['triangles_per_box']:,} | {_g(b['us_n1'])} | "
-            f"{_g(b['us_per_pair'])} | {_g(b['contacts_per_pair_median'])} | "
+            f"| {b['pose_set']} | {b['n']} | {b['triangles_per_box']:,} | "
+            f"{significant(b['us_n1'])} | "
+            f"{significant(b['us_per_pair'])} | {significant(b['contacts_per_pair_median'])} | "
             f"{_pair(b['point_pct_median'], b['point_pct_p99'])} | "
-            f"{_g(b['paper_bound_pct'])} | {within} | "
+            f"{significant(b['paper_bound_pct'])} | {within} | "
             f"{_pair(b['normal_deg_median'], b['normal_deg_p99'])} | "
             f"{100 * b['miss_rate']:.2g} % |")
     return "\n".join(lines)
@@ -150,18 +143,11 @@ def variants_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def machine_line(m: dict) -> str:
-    v = m.get("versions", {})
-    return (f"{m['cpu']}, {m['cores']} cores ({m.get('cores_usable')} usable), load "
-            f"{_g(m.get('load_avg_1m'), 2)} at the start; Python {m['python']}, numpy "
-            f"{m['numpy']}, python-fcl {m['python-fcl']}, torch {v.get('torch')}, mujoco "
-            f"{v.get('mujoco')}, numba {v.get('numba')}; BLAS / OpenMP pinned to one thread")
-
-
 def markdown(results: dict) -> str:
     """The whole report."""
     out = [f"# impactnet bench ({results['mode']} run, {results['created']}, "
            f"{results['seconds']} s)", "",
+           f"Command: `{results.get('command', 'impactnet bench')}`.", "",
            f"Machine: {machine_line(results['machine'])}.", "",
            f"Polygon rule: {results['polygon_rule']}.", ""]
     tol = results["scene"].get("tolerance")
@@ -184,7 +170,7 @@ def markdown(results: dict) -> str:
 
         out += speed_markdown(results["speed"])
     if "http" in results:
-        from impactnet.training.bench.http import http_table
+        from impactnet.training.bench.http.predictors import http_table
 
         out += ["## Through the HTTP service (loopback)", "", http_table(results["http"]), ""]
     return "\n".join(out)

@@ -16,10 +16,12 @@ import sys
 import time
 from dataclasses import asdict
 
-from impactnet.training.bench import paper, vs_mujoco
+from impactnet.training.bench.accuracy import vs_mujoco
+from impactnet.training.bench.markdown import invoked_command
 from impactnet.training.bench.measure import BenchConfig, add_ratios, measure_method
 from impactnet.training.bench.methods import default_methods
-from impactnet.training.bench.polygon import RULE, VARIANTS
+from impactnet.training.bench.paper import grid_estimate as paper
+from impactnet.training.bench.paper.polygon import RULE, VARIANTS
 from impactnet.training.bench.pose_sets import figure2_poses, scene_poses
 from impactnet.training.bench.timing import machine_info
 
@@ -81,6 +83,7 @@ def run_bench(config: BenchConfig, methods=None, mode: str = "custom",
     results = {
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "mode": mode,
+        "command": invoked_command("impactnet bench" + (" --quick" if mode == "quick" else "")),
         "config": asdict(config),
         "machine": machine,
         "scene": {"name": scene.name, "hash": scene.hash(), "pairs": len(scene.pairs),
@@ -98,7 +101,7 @@ def run_bench(config: BenchConfig, methods=None, mode: str = "custom",
 
         results["speed"] = measure_speed(config.speed, sets[0], config.seed, log)
     if config.http:
-        from impactnet.training.bench.http import measure_http
+        from impactnet.training.bench.http.predictors import measure_http
 
         results["http"] = measure_http(config, sets[0], scene, log)
     results["seconds"] = round(time.perf_counter() - started, 1)

@@ -21,8 +21,8 @@ import numpy as np
 import safetensors.numpy
 import torch
 
-from impactnet.models.bundle.format import read_bundle, write_bundle
 from impactnet.models.bundle.store import VERSIONS, prune, set_current
+from impactnet.models.learned.bundle_loader import read_bundle, write_bundle
 from impactnet.models.scenes import Scene
 from impactnet.training.compound.pair import CompoundTrainConfig, train_compound_pair
 from impactnet.training.compound.rows import pair_columns

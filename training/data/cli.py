@@ -3,8 +3,7 @@
     impactnet datagen --scene quay_crane --n-per-pair 100000 --seed 0 --out data/ [--no-progress]
 
 Writes ``<out>/<scene>.npz`` and ``<out>/<scene>.json`` (see :mod:`impactnet.training.data.datagen`)
-and
-prints a one-line summary per pair plus the totals. Exit status: 0 done, 2 bad scene or
+and prints a one-line summary per pair plus the totals. Exit status: 0 done, 2 bad scene or
 arguments.
 """
 from __future__ import annotations

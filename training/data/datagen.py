@@ -7,12 +7,10 @@ Stages (vectorised over the rows of a chunk; chunks run one after the other):
    reordering pairs of a scene leaves every other pair's rows unchanged. Chunk ``k`` of a pair
    draws from the child ``spawn_key + (k,)``.
 2. Poses. A chunk of m rows is split between the orientation families in the shares of
-   :class:`DatagenConfig` (exact counts, by rounding the cumulative shares), each family drawn
-   by :func:`impactnet.models.geometry.poses.first_contact_poses`: relative orientation of the
-   family,
-   a random
-   approach direction, B moved in exactly to first touch, then pushed in by a depth drawn from
-   the depth range (or, for the separated share, pulled out by such a depth). The rows of the
+   :class:`DatagenConfig` (exact counts, by rounding the cumulative shares), each family drawn by
+   :func:`impactnet.models.geometry.poses.first_contact_poses`: relative orientation of the family,
+   a random approach direction, B moved in exactly to first touch, then pushed in by a depth drawn
+   from the depth range (or, for the separated share, pulled out by such a depth). The rows of the
    chunk are then shuffled, so that any prefix of the data mixes the families.
 3. Labels. One :func:`impactnet.models.box.exact.box_box` call per chunk labels every row.
 

@@ -1,8 +1,8 @@
 """A per-pair cache of trained pairs: reuse of unchanged pairs, and resume after an interruption.
 
 A pair's result (:class:`impactnet.training.fit.pair.PairResult`) depends only on what
-:func:`pair_key`
-hashes, so a cached result with the same key *is* the result that training would produce:
+:func:`pair_key` hashes, so a cached result with the same key *is* the result that training would
+produce:
 
 - the pair's body names (its seed stream, :func:`impactnet.training.data.datagen.pair_seed`) and
 sizes,

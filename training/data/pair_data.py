@@ -5,14 +5,12 @@ Stages of :func:`make_pair_data`:
 1. Rows: :func:`impactnet.training.data.datagen.generate_pairs` draws and labels ``rows``
 first-contact
    configurations with the pair's seed (:func:`impactnet.training.data.datagen.pair_seed`) and the
-   scene's
-   depth range.
+   scene's depth range.
 2. Learning arrays: :func:`impactnet.models.learned.canonical.learning_arrays` (the inference side's
 code, so
-   both sides agree) gives ``pose-v1`` features, ``contact-v1`` targets and canonical region
-   keys; :func:`impactnet.models.learned.region_label.unclipped_points` the unclipped point, from
-   which the
-   experts learn the residual (:meth:`PairData.expert_targets`).
+   both sides agree) gives ``pose-v1`` features, ``contact-v1`` targets and canonical region keys;
+   :func:`impactnet.models.learned.region_label.unclipped_points` the unclipped point, from which
+   the experts learn the residual (:meth:`PairData.expert_targets`).
 3. Splits: a permutation seeded by the pair's seed splits the rows into train / validation /
    test by the configured shares. Validation drives early stopping and the ``auto``
    calibration; test is only measured.
@@ -154,8 +152,7 @@ def make_pair_data(size_a, size_b, seed: np.random.SeedSequence,
         Full edge lengths of A and B, metres.
     seed : numpy.random.SeedSequence
         The pair's seed (``impactnet.training.data.datagen.pair_seed(seed, pair)``); the split draws
-        from its
-        stream :data:`SPLIT_STREAM`.
+        from its stream :data:`SPLIT_STREAM`.
     depth_fraction : (float, float)
         The scene's depth range, fractions of the shortest edge.
     config, datagen : PairDataConfig, DatagenConfig

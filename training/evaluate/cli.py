@@ -3,10 +3,9 @@
     impactnet evaluate --scene quay_crane --bundle models/bundles/quay_crane
                        --out docs/evaluation [--rows 100000] [--seed 0] [--quick] [--check]
 
-Measures every predictor of the bundle on fresh test rows of each pair of the scene and on
-the paper's protocol (:mod:`impactnet.training.evaluate.run`), writes ``report.md``,
-``evaluation.json`` and
-the PNG figures into ``--out``, and prints the goals of issue 4 with met / missed.
+Measures every predictor of the bundle on fresh test rows of each pair of the scene and on the
+paper's protocol (:mod:`impactnet.training.evaluate.run`), writes ``report.md``, ``evaluation.json``
+and the PNG figures into ``--out``, and prints the goals of issue 4 with met / missed.
 
 Exit status: 0 done (goals met or not, unless ``--check``); 1 with ``--check`` when a goal is
 missed; 2 bad arguments, unknown scene, or a missing, altered or foreign bundle. Nothing heavy

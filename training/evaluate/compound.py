@@ -90,8 +90,8 @@ def _best_regions(regions: dict, parts_a, parts_b, top: int = 3) -> list[dict]:
 
 def evaluate_compound(scene, bundle_path, rows: int, seed: int) -> dict:
     """Every compound pair of ``scene`` scored (module docstring)."""
-    from impactnet.models.bundle.format import read_bundle
     from impactnet.models.bundle.store import resolve_bundle
+    from impactnet.models.learned.bundle_loader import read_bundle
     from impactnet.training.data.compound_dataset import compound_pairs
 
     start = time.perf_counter()

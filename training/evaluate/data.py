@@ -1,22 +1,20 @@
 """The held-out test set of `impactnet evaluate` and each row's distance to a region boundary.
 
 Test rows (:func:`test_rows`): :func:`impactnet.training.data.datagen.generate_pairs` with the
-pair's sizes,
-the scene's depth range and the orientation families the bundle was trained with (its
-manifest's ``datagen`` config; the defaults where the manifest does not say), drawn from the
-stream :data:`EVAL_STREAM` of the pair's seed. Training draws chunk ``k`` of a pair from spawn
-key ``pair + (k,)`` and its torch generators from ``pair + (2_000_00x,)``; the test set draws
-from ``pair + (EVAL_STREAM, k)``, so it shares no random numbers with any training run, even at
-the same ``--seed``. Labels come from the exact solver, as in training.
+pair's sizes, the scene's depth range and the orientation families the bundle was trained with (its
+manifest's ``datagen`` config; the defaults where the manifest does not say), drawn from the stream
+:data:`EVAL_STREAM` of the pair's seed. Training draws chunk ``k`` of a pair from spawn key
+``pair + (k,)`` and its torch generators from ``pair + (2_000_00x,)``; the test set draws from
+``pair + (EVAL_STREAM, k)``, so it shares no random numbers with any training run, even at the same
+``--seed``. Labels come from the exact solver, as in training.
 
 Boundary distance (:func:`boundary_distance`), on rows the exact solver calls colliding, as a
 fraction of the pair's shortest edge ``e`` (the smaller body's shortest edge):
 
 * ``sat_margin``: the gap between the smallest of the 15 separating-axis overlaps
   (:func:`impactnet.models.geometry.approach.axis_overlaps`, metres) and the smallest on an axis of
-  another
-  direction (aligned boxes share face axes: no boundary between those). Where it is 0 the axis
-  of least penetration, and with it the normal and the reference feature, is about to switch.
+  another direction (aligned boxes share face axes: no boundary between those). Where it is 0 the
+  axis of least penetration, and with it the normal and the reference feature, is about to switch.
 * ``vertex_gap`` (face axes only; +inf for edge-edge): the incident box's 8 vertices, signed
   penetration beyond the reference face's plane along the normal, sorted deepest first; the
   contact type counts the penetrating vertices (1: vertex, 2: edge, 3-4: face), so it changes

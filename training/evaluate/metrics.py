@@ -7,11 +7,10 @@ Rules (docs/evaluation.md):
 * Contact / no contact: a row the exact solver calls colliding and the predictor separated is
   *missed*; the other way round a *false contact*. Both are type errors (the contact type
   "none" differs) and region errors; they are counted, and they have no point or normal error.
-* Point, normal and depth errors are measured on the rows both call colliding: normal as the
-  angle between the unit normals (degrees, :func:`impactnet.training.bench.errors.angle_deg`), point
-  as
-  the distance in % of the pair's shortest edge e, depth as ``|d - d_exact|`` in % of e and in
-  millimetres.
+* Point, normal and depth errors are measured on the rows both call colliding: normal as the angle
+  between the unit normals (degrees, :func:`impactnet.training.bench.accuracy.errors.angle_deg`),
+  point as the distance in % of the pair's shortest edge e, depth as ``|d - d_exact|`` in % of e and
+  in millimetres.
 * Region = (contact type, feature of A, feature of B) in world ids, as the exact solver labels
   it; a row is right when all three agree ("none" agrees with "none"). Contact-type accuracy
   compares the type alone. ``single`` predicts no type: both are None for it.
@@ -28,7 +27,7 @@ import numpy as np
 from impactnet.models.contacts import CONTACT_TYPES
 from impactnet.models.learned.canonical import region_key
 from impactnet.models.metrics import summarise
-from impactnet.training.bench.errors import row_errors
+from impactnet.training.bench.accuracy.errors import row_errors
 
 #: Boundary-distance bin edges (fractions of e): one bin per decade, plus a bin below the first
 #: edge (down to 0) and one from the last edge up.

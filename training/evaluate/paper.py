@@ -2,15 +2,13 @@
 
 The poses, labels and measures are those of the reproduction (``impactnet reproduce-paper``):
 :mod:`impactnet.training.paper.data` draws the external test set of each problem (with
-discontinuities:
-every contact of the paper's stream; without: the one smooth region), and
+discontinuities: every contact of the paper's stream; without: the one smooth region), and
 :func:`impactnet.training.paper.metrics.evaluate` measures ME, MAE and RMSE of the four angles, raw
-and
-with wrapped azimuths. A predictor's answer (world point and normal, A at the origin with
+and with wrapped azimuths. A predictor's answer (world point and normal, A at the origin with
 identity orientation) becomes the four angles by
-:func:`impactnet.models.geometry.spherical.paper_angles`, as the
-exact labels do. The random stream is ``default_rng([seed, problem index, PAPER_STREAM])``;
-the reproduction draws from ``[seed, problem index]``, so the sets are fresh.
+:func:`impactnet.models.geometry.spherical.paper_angles`, as the exact labels do. The random stream
+is ``default_rng([seed, problem index, PAPER_STREAM])``; the reproduction draws from
+``[seed, problem index]``, so the sets are fresh.
 
 A row the predictor calls separated still has a point and a normal (``committee``: the
 centres' midpoint and the centre line) and enters the angles as it is; their number is

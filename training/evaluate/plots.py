@@ -4,15 +4,13 @@
   error (% of e) of each predictor, on the rows both it and the exact solver call colliding.
 * ``boundary.png``: median and p99 of both errors against the distance to the nearest region
   boundary (:mod:`impactnet.training.evaluate.data`), and the share of rows and the region error
-  rate
-  per distance bin.
+  rate per distance bin.
 * ``confusion.png``: the contact-type confusion matrix of each predictor that names types,
   row-normalised (exact type per row), with the row counts written in the cells.
 
-The exact solver (the reference: error 0 everywhere) is left out of the plots. Errors of 0
-cannot be drawn on log axes; everything below :data:`impactnet.training.bench.plots.ERROR_FLOOR` is
-drawn
-at it.
+The exact solver (the reference: error 0 everywhere) is left out of the plots. Errors of 0 cannot be
+drawn on log axes; everything below :data:`impactnet.training.bench.plots.ERROR_FLOOR` is drawn at
+it.
 """
 from __future__ import annotations
 

@@ -17,9 +17,8 @@ Stages of :func:`evaluate`:
 5. Issue 4's goals (:data:`GOALS`), each with its measured value and met / missed.
 
 The report, JSON and figures are written by :func:`write`
-(:mod:`impactnet.training.evaluate.report`,
-:mod:`impactnet.training.evaluate.plots`). Everything is vectorised over rows; loops run over pairs,
-predictors and distance bins only.
+(:mod:`impactnet.training.evaluate.report`, :mod:`impactnet.training.evaluate.plots`). Everything is
+vectorised over rows; loops run over pairs, predictors and distance bins only.
 """
 from __future__ import annotations
 
@@ -31,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from impactnet.models.bundle.format import read_bundle
 from impactnet.models.bundle.store import resolve_bundle
+from impactnet.models.learned.bundle_loader import read_bundle
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.predictors import PREDICTOR_NAMES, BundleError, load_predictor
 from impactnet.models.scenes import Scene

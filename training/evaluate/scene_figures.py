@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from impactnet.models.bundle.format import read_bundle
+from impactnet.models.learned.bundle_loader import read_bundle
 from impactnet.models.metrics import summarise
 from impactnet.models.scenes import Scene
 from impactnet.training.data.datagen import pair_seed
@@ -82,9 +82,8 @@ def reevaluate_pair(scene: Scene, index: int, mlps: dict, block: dict, config) -
     """Row record of the test split of ``scene.pairs[index]`` under written models.
 
     The pair's data is regenerated from its seed (as :func:`impactnet.training.fit.pair.train_pair`
-    made
-    it) and its test rows are evaluated again; for models that training wrote, the record equals
-    the one training kept, bit for bit.
+    made it) and its test rows are evaluated again; for models that training wrote, the record
+    equals the one training kept, bit for bit.
 
     Parameters
     ----------
@@ -93,8 +92,7 @@ def reevaluate_pair(scene: Scene, index: int, mlps: dict, block: dict, config) -
         The pair's index in ``scene``.
     mlps : dict
         Name -> the inference side's MLP (:attr:`impactnet.models.bundle.format.Bundle.mlps`), at
-        least the
-        networks that ``block`` names.
+        least the networks that ``block`` names.
     block : dict
         The pair's manifest block (``single``, ``classifier``, ``experts``, ``auto``).
     config : impactnet.training.fit.pair.PairTrainConfig

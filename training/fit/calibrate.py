@@ -58,11 +58,9 @@ def calibration_scores(pred: dict, depth_fraction: tuple[float, float]) -> np.nd
     """The four "keep if <= threshold" scores of every row, (4, n) float64.
 
     ``pred``: :func:`impactnet.training.fit.pair_eval.committee_predictions` output. Rows predicted
-    "none"
-    have spreads 0 and no depth excess; rows ``auto`` answers exactly anyway
-    (``pred["auto_exact"]``, else ``pred["exact"]``: a region without a committee, a clipped
-    contact of impactnet.models.learned.pair_runtime.AUTO_EXACT_TYPES) get an infinite depth excess,
-    so that
+    "none" have spreads 0 and no depth excess; rows ``auto`` answers exactly anyway
+    (``pred["auto_exact"]``, else ``pred["exact"]``: a region without a committee, a clipped contact
+    of impactnet.models.learned.pair_runtime.AUTO_EXACT_TYPES) get an infinite depth excess, so that
     they count as fallback.
     """
     lo, hi = depth_fraction

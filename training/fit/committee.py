@@ -1,29 +1,24 @@
 """The ``committee`` of a pair: K experts per region, trained together.
 
 The region classifier is the exact labeller :mod:`impactnet.models.learned.region_label` (the exact
-solver's
-separating-axis test and incident-feature rule, without the clipping): it has nothing to
-learn, and it agrees with the exact solver on every row, where a learned classifier reached
-70 % (pose-v1) to 99.7 % (SAT-derived inputs, docs/classifier_study.md). The regions with a
-committee are the pair's region classes (:attr:`impactnet.training.data.pair_data.PairData.regions`,
-"none"
+solver's separating-axis test and incident-feature rule, without the clipping): it has nothing to
+learn, and it agrees with the exact solver on every row, where a learned classifier reached 70 %
+(pose-v1) to 99.7 % (SAT-derived inputs, docs/classifier_study.md). The regions with a committee are
+the pair's region classes (:attr:`impactnet.training.data.pair_data.PairData.regions`, "none"
 first); rows of rarer regions are answered by the exact solver at inference.
 
 Experts (:func:`train_experts`): for every region class r >= 1, K members
 ``pose-v1 -> contact-residual-v1`` trained on that region's rows only, with the loss of
 :func:`impactnet.training.fit.single.contact_loss`. The point they learn is the residual of the
-exact
-point from the labeller's unclipped point (the depth-weighted mean of the touching incident
+exact point from the labeller's unclipped point (the depth-weighted mean of the touching incident
 vertices; :meth:`impactnet.training.data.pair_data.PairData.expert_targets`): zero wherever the
-reference face
-does not clip the incident feature, so the experts learn the clipping only. The normal and
-depth come from the exact labeller at inference, so they enter the loss only as auxiliary
-targets (weight ``CommitteeConfig.expert_aux_weight`` relative to the point). All R x K experts
-of the pair are one :class:`impactnet.training.fit.torch_mlp.StackedMLP` with group ``g = r_index *
-K +
-member``: one Adam step trains all of them, each member draws its own initial weights and its
-own batches (the committee's diversity comes from initialisation and sampling order; no
-bootstrap, so no member loses rows), each region keeps its own normalisation, and each group is
+reference face does not clip the incident feature, so the experts learn the clipping only. The
+normal and depth come from the exact labeller at inference, so they enter the loss only as auxiliary
+targets (weight ``CommitteeConfig.expert_aux_weight`` relative to the point). All R x K experts of
+the pair are one :class:`impactnet.training.fit.torch_mlp.StackedMLP` with group
+``g = r_index * K + member``: one Adam step trains all of them, each member draws its own initial
+weights and its own batches (the committee's diversity comes from initialisation and sampling order;
+no bootstrap, so no member loses rows), each region keeps its own normalisation, and each group is
 early-stopped on its region's validation rows. :func:`export_committee` writes every (region,
 member) as its own MLP.
 """

@@ -1,6 +1,5 @@
 """The training loop of :class:`impactnet.training.fit.torch_mlp.StackedMLP`: every group at once,
-each group
-early-stopped on its own validation rows.
+each group early-stopped on its own validation rows.
 
 Stages of :func:`fit`:
 

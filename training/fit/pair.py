@@ -16,8 +16,7 @@ test split,
 
 Torch seeds: each component draws from a generator seeded by the pair's seed sequence
 (``impactnet.training.data.datagen.pair_seed``) with its own stream (:data:`TORCH_STREAMS`), so
-pairs and
-components are independent of the order in which they are trained.
+pairs and components are independent of the order in which they are trained.
 """
 from __future__ import annotations
 

@@ -1,20 +1,18 @@
 """Predictions and errors of a pair's exported models on labelled rows (validation or test).
 
 The exported tensors are run with the inference side's NumPy MLPs
-(:mod:`impactnet.models.learned.mlp`), so the
-figures are those of the float32 networks that serving runs. Everything is measured in the
-canonical frame, where errors equal the world frame's (a sign flip and a rotation preserve
-angles and distances).
+(:mod:`impactnet.models.learned.mlp`), so the figures are those of the float32 networks that serving
+runs. Everything is measured in the canonical frame, where errors equal the world frame's (a sign
+flip and a rotation preserve angles and distances).
 
 Per row (:func:`committee_predictions`): the region is the exact labeller's
 (:mod:`impactnet.models.learned.region_label`), which equals the data's label by construction (both
-are the
-exact solver's decision), so the rows' labels stand in for it; confidence 1. The normal and
-depth are the labeller's too (the targets'). For a contact region with a committee, that
-region's K members give the point, averaged, with the normal spread (largest angle between
-two member normals, degrees) and the point spread (largest distance between two member
-points, fraction of the shortest edge e). Rows of a region without a committee are answered
-by the exact solver (``exact`` True, output = target).
+are the exact solver's decision), so the rows' labels stand in for it; confidence 1. The normal and
+depth are the labeller's too (the targets'). For a contact region with a committee, that region's K
+members give the point, averaged, with the normal spread (largest angle between two member normals,
+degrees) and the point spread (largest distance between two member points, fraction of the shortest
+edge e). Rows of a region without a committee are answered by the exact solver (``exact`` True,
+output = target).
 
 Errors (:func:`contact_errors`): normal angle (degrees) and point distance (fraction of e).
 A row where prediction and truth disagree on contact vs none has error +inf in both
@@ -27,8 +25,8 @@ import numpy as np
 
 from impactnet.models.contacts import CONTACT_TYPES
 from impactnet.models.learned import canonical as cn
+from impactnet.models.learned.kernel_pair import AUTO_EXACT_TYPES
 from impactnet.models.learned.mlp import MLP, MLPSpec, MLPStack
-from impactnet.models.learned.pair_runtime import AUTO_EXACT_TYPES
 from impactnet.models.metrics import angle_deg, summarise
 from impactnet.training.data.pair_data import EXACT_POINT_LABEL, UNSURE_LABEL, PairData
 

@@ -3,12 +3,11 @@
 
 Loss (:func:`contact_loss`): the squared error of every output in units of its tolerance
 (:func:`output_tolerances`): the point in units of the scene's point tolerance, the normal
-components in units of the scene's normal tolerance (radians; a small rotation of a unit
-vector by an angle moves its components by at most that angle), the depth in units of
-:data:`DEPTH_TOLERANCE`. On the normalised outputs of
-:class:`impactnet.training.fit.torch_mlp.StackedMLP`
-this is an MSE weighted per column by ``(out_scale / tolerance)^2`` (weights divided by their
-mean, so the loss stays of order one); the outputs that the scene needs more exactly weigh more.
+components in units of the scene's normal tolerance (radians; a small rotation of a unit vector by
+an angle moves its components by at most that angle), the depth in units of :data:`DEPTH_TOLERANCE`.
+On the normalised outputs of :class:`impactnet.training.fit.torch_mlp.StackedMLP` this is an MSE
+weighted per column by ``(out_scale / tolerance)^2`` (weights divided by their mean, so the loss
+stays of order one); the outputs that the scene needs more exactly weigh more.
 
 ``single`` trains on the colliding rows only (its outputs have no meaning on separated rows).
 """

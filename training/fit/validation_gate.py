@@ -1,11 +1,10 @@
 """The validation gate: may a newly trained bundle become a store's ``current`` version?
 
 The gate judges what the bundle **serves**. Each pair's recorded decision
-(:mod:`impactnet.training.jobs.decisions`, taken before the gate) says whether its learned
-path or the exact solver answers it: a pair whose learned path is too slow *or misses the
-scene's tolerance* is decided exact-only there
-(:func:`impactnet.training.bench.decide.serve_decision`). :func:`validation_gate` checks a
-bundle manifest against its scene. It passes when
+(:mod:`impactnet.training.jobs.decisions`, taken before the gate) says whether its learned path or
+the exact solver answers it: a pair whose learned path is too slow *or misses the scene's tolerance*
+is decided exact-only there (:func:`impactnet.training.bench.learned.decide.serve_decision`).
+:func:`validation_gate` checks a bundle manifest against its scene. It passes when
 
 1. the manifest was built for this scene (name and hash) and covers every pair of the scene;
 2. on every **learned** pair's **held-out test split** (rows nothing was fitted or calibrated
@@ -150,7 +149,7 @@ def served_checks(manifest: dict, tensors: dict, scene: Scene,
     (``manifest`` with its decisions, and ``tensors``, not yet written) on fresh rows of every
     pair (:func:`served_figures`)."""
     from impactnet.models import load_predictor
-    from impactnet.models.bundle.format import bundle_in_memory
+    from impactnet.models.learned.bundle_loader import bundle_in_memory
 
     config = config or GateConfig()
     if config.served_rows <= 0:

@@ -1,15 +1,13 @@
 """Unchanged pairs taken from a store's current bundle, where the per-pair cache has none.
 
 The per-pair cache (:mod:`impactnet.training.data.pair_cache`) is not committed (too big), so on a
-fresh clone a
-store such as ``models/bundles/quay_crane`` has its bundle but no cache. :func:`open_current`
-makes the store's current bundle a second source of reuse: a pair of it is reused for
-``scene.pairs[index]`` trained with ``config`` when
+fresh clone a store such as ``models/bundles/quay_crane`` has its bundle but no cache.
+:func:`open_current` makes the store's current bundle a second source of reuse: a pair of it is
+reused for ``scene.pairs[index]`` trained with ``config`` when
 
 1. the bundle has this code's format (:data:`impactnet.models.bundle.format.FORMAT_VERSION`, which
    :func:`impactnet.models.bundle.format.read_bundle` checks) and was written by this impactnet
-   version
-   (manifest ``impactnet_version`` equals ``impactnet.__version__``);
+   version (manifest ``impactnet_version`` equals ``impactnet.__version__``);
 2. it was trained with the same :class:`impactnet.training.fit.pair.PairTrainConfig` (manifest
    ``training.config.pair``, JSON-equal, the seed included);
 3. it has the pair (same key ``"a/b"``: the same body names, hence the same seed stream) with
@@ -24,14 +22,12 @@ training code that keeps impactnet's version and the bundle format. After such a
 ``impactnet train --no-reuse`` (or bump the version).
 
 A reused pair's :class:`impactnet.training.fit.pair.PairResult` holds the bundle's tensors of the
-pair's
-networks (bit for bit), their ``mlps`` entries, the pair's block (networks renamed by
+pair's networks (bit for bit), their ``mlps`` entries, the pair's block (networks renamed by
 :func:`impactnet.training.data.pair_cache.reprefix` where the pair's index moved), ``seconds`` 0 and
-the test
-rows re-evaluated from the seeded data
-(:func:`impactnet.training.evaluate.scene_figures.reevaluate_pair`, a few
-seconds per pair). Reused pairs are not written to the cache: the cache's key vouches for the
-training code, which a bundle cannot.
+the test rows re-evaluated from the seeded data
+(:func:`impactnet.training.evaluate.scene_figures.reevaluate_pair`, a few seconds per pair). Reused
+pairs are not written to the cache: the cache's key vouches for the training code, which a bundle
+cannot.
 """
 from __future__ import annotations
 
@@ -43,8 +39,9 @@ import sys
 
 import safetensors.numpy
 
-from impactnet.models.bundle.format import WEIGHTS, Bundle, BundleError, read_bundle
+from impactnet.models.bundle.format import WEIGHTS, BundleError
 from impactnet.models.bundle.store import current_version, resolve_bundle
+from impactnet.models.learned.bundle_loader import Bundle, read_bundle
 from impactnet.models.scenes import Body, BodyPair, Scene
 from impactnet.training.data.pair_cache import plain, reprefix
 from impactnet.training.evaluate.scene_figures import reevaluate_pair

@@ -6,14 +6,13 @@
 
 Trains the learned models of the scene's pairs into a new version of the bundle store ``--out``
 (:mod:`impactnet.training.jobs.retrain`): unchanged pairs are reused from the per-pair cache, or
-where it
-has none from the store's current bundle (said on stderr), a rerun after an interruption
+where it has none from the store's current bundle (said on stderr), a rerun after an interruption
 resumes from the finished pairs, each pair is decided learned or exact-only
-(:mod:`impactnet.training.jobs.decisions`: fast enough and within the scene's tolerance, or
-not, said on stderr with the reasons), and the ``current`` pointer moves to the new version
-only when it passes the validation gate (:mod:`impactnet.training.fit.validation_gate`: what
-the bundle serves within the scene's p99 tolerances). Prints one line per pair (test
-figures), the gate's verdict and the wall time.
+(:mod:`impactnet.training.jobs.decisions`: fast enough and within the scene's tolerance, or not,
+said on stderr with the reasons), and the ``current`` pointer moves to the new version only when it
+passes the validation gate (:mod:`impactnet.training.fit.validation_gate`: what the bundle serves
+within the scene's p99 tolerances). Prints one line per pair (test figures), the gate's verdict and
+the wall time.
 
 Exit status: 0 published; 2 bad scene or arguments; 3 the gate refused the new version
 (``current`` untouched); 130 interrupted (finished pairs cached: rerun to resume).

@@ -1,8 +1,8 @@
 """Model only what a scene requires: after training, each pair's learned path is measured
 against the exact solver and the bundle records the decision (issue #21, step 4).
 
-The measurement and the rule are :mod:`impactnet.training.bench.decide`'s
-(:func:`~impactnet.training.bench.decide.serve_decision`): ``auto`` (fallback rows included)
+The measurement and the rule are :mod:`impactnet.training.bench.learned.decide`'s
+(:func:`~impactnet.training.bench.learned.decide.serve_decision`): ``auto`` (fallback rows included)
 must be at least 2x faster than the exact solver at N = 1 and at the batch size on the pair's
 first-contact poses, with p99 errors within the scene's tolerance there and wherever the
 validation gate measures the learned path (the pair's held-out test split, the manifest's
@@ -18,9 +18,9 @@ from dataclasses import asdict, replace
 
 import numpy as np
 
-from impactnet.models.bundle.format import bundle_in_memory
+from impactnet.models.learned.bundle_loader import bundle_in_memory
 from impactnet.models.scenes import Scene
-from impactnet.training.bench import decide as dc
+from impactnet.training.bench.learned import decide as dc
 from impactnet.training.bench.methods import exact_method, predictor_method
 from impactnet.training.bench.pose_sets import scene_poses
 from impactnet.training.fit.validation_gate import GateConfig, served_figures

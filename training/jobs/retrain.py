@@ -7,23 +7,21 @@ bundle
    folder written before stores existed is adopted as its first version.
 2. Pairs: :func:`impactnet.training.jobs.scene.train_pairs` with the store's per-pair cache
    (:mod:`impactnet.training.data.pair_cache`, ``<out>/.cache/pairs`` by default): a pair whose
-   sizes, data
-   settings, training config, seed and training code are unchanged is reused (said on stderr),
-   the others are trained, and each finished pair is cached at once. A rerun after Ctrl-C or a
-   killed process therefore resumes from the finished pairs, and since every pair's training is
+   sizes, data settings, training config, seed and training code are unchanged is reused (said on
+   stderr), the others are trained, and each finished pair is cached at once. A rerun after Ctrl-C
+   or a killed process therefore resumes from the finished pairs, and since every pair's training is
    deterministic for its seed, the result equals that of an uninterrupted run. A pair the cache
-   lacks (a fresh clone ships the store without its cache) is taken from the store's current
-   bundle where it is unchanged there (:mod:`impactnet.training.jobs.bundle_reuse`: same sizes,
-   depth range,
-   accuracy, training config, impactnet version and bundle format), said as ``reused from
-   bundle <version>``.
-3. Decide, then gate: each pair's decision (:mod:`impactnet.training.jobs.decisions`): its
-   learned path measured against the exact solver, served only where it is fast enough and
-   within the scene's tolerance, else exact-only. Then
+   lacks (a fresh clone ships the store without its cache) is taken from the store's current bundle
+   where it is unchanged there (:mod:`impactnet.training.jobs.bundle_reuse`: same sizes, depth
+   range, accuracy, training config, impactnet version and bundle format), said as
+   ``reused from bundle <version>``.
+3. Decide, then gate: each pair's decision (:mod:`impactnet.training.jobs.decisions`): its learned
+   path measured against the exact solver, served only where it is fast enough and within the
+   scene's tolerance, else exact-only. Then
    :func:`impactnet.training.fit.validation_gate.validation_gate` and
-   :func:`~impactnet.training.fit.validation_gate.served_checks` on the new manifest judge
-   what it serves (a learned pair's learned path, an exact-only pair's exact answers); the
-   verdict is stored in the manifest (``validation_gate``).
+   :func:`~impactnet.training.fit.validation_gate.served_checks` on the new manifest judge what it
+   serves (a learned pair's learned path, an exact-only pair's exact answers); the verdict is stored
+   in the manifest (``validation_gate``).
 4. Write: the bundle goes to ``versions/<version>/`` when it passed (or the gate is not
    enforced), else to ``rejected/<version>/``, atomically
    (:func:`impactnet.models.bundle.format.write_bundle`).
@@ -40,7 +38,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from impactnet.models.bundle.format import MANIFEST, BundleError, read_bundle, write_bundle
+from impactnet.models.bundle.format import MANIFEST, BundleError
 from impactnet.models.bundle.store import (
     REJECTED,
     VERSIONS,
@@ -49,6 +47,7 @@ from impactnet.models.bundle.store import (
     prune,
     set_current,
 )
+from impactnet.models.learned.bundle_loader import read_bundle, write_bundle
 from impactnet.models.predictors import load_predictor
 from impactnet.models.scenes import Scene
 from impactnet.training.data.pair_cache import PairCache

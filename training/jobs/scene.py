@@ -33,7 +33,7 @@ import safetensors.numpy
 import torch
 from tqdm import tqdm
 
-from impactnet.models.bundle.format import write_bundle
+from impactnet.models.learned.bundle_loader import write_bundle
 from impactnet.models.scenes import Scene
 from impactnet.training.data.pair_cache import PairCache, plain
 from impactnet.training.data.pair_data import PairDataConfig
@@ -119,13 +119,11 @@ def train_pairs(scene: Scene, config: TrainConfig, progress: bool | None = None,
     """Train the pairs ``pairs`` (default: all) of a scene, in scene order of the result.
 
     With a ``cache`` (:class:`impactnet.training.data.pair_cache.PairCache`), a pair whose entry
-    exists is
-    reused instead of trained (said on stderr, and ``reused[key]`` names where it came from),
-    and every trained pair is stored as soon as it finishes: an interrupted run loses at most
-    the pairs in progress, and its rerun resumes from the finished ones with the same result.
-    A ``bundle`` (:class:`impactnet.training.jobs.bundle_reuse.BundleSource`) is asked for the pairs
-    that the
-    cache lacks; what it gives is not cached. ``reuse=False`` trains every pair and only
+    exists is reused instead of trained (said on stderr, and ``reused[key]`` names where it came
+    from), and every trained pair is stored as soon as it finishes: an interrupted run loses at most
+    the pairs in progress, and its rerun resumes from the finished ones with the same result. A
+    ``bundle`` (:class:`impactnet.training.jobs.bundle_reuse.BundleSource`) is asked for the pairs
+    that the cache lacks; what it gives is not cached. ``reuse=False`` trains every pair and only
     refreshes the cache.
     """
     indices = list(range(len(scene.pairs))) if pairs is None else list(pairs)
@@ -201,6 +199,6 @@ def train_scene(scene: Scene, out, config: TrainConfig | None = None,
                               time.perf_counter() - start)
     manifest = record_decisions(scene, manifest, tensors, config.quick, train_log)
     path = write_bundle(out, manifest, tensors)
-    from impactnet.models.bundle.format import read_bundle
+    from impactnet.models.learned.bundle_loader import read_bundle
 
     return path, read_bundle(path).manifest

@@ -1,32 +1,28 @@
 """The paper's data sets: the cube pair at first contact, labelled with the paper's four angles.
 
-Protocol (shared/paper.txt, section IV, as impactnet reads it):
+Protocol (the paper's section IV, as impactnet reads it; docs/design.md, "References"):
 
-1. Two cubes of edge 2 m. B's orientation relative to A: Euler angles roll, pitch, yaw each
-   uniform in [-pi/2, pi/2], ``R = Rz(yaw) Ry(pitch) Rx(roll)``
-   (:mod:`impactnet.models.geometry.rotations`
-   "zyx"); a random approach direction; B moved to first touch along it and pushed in by a
-   small depth (:func:`impactnet.models.geometry.poses.first_contact_poses`,
-   ``orientation="paper"``).
+1. Two cubes of edge 2 m. B's orientation relative to A: Euler angles roll, pitch, yaw each uniform
+   in [-pi/2, pi/2], ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (:mod:`impactnet.models.geometry.rotations`
+   "zyx"); a random approach direction; B moved to first touch along it and pushed in by a small
+   depth (:func:`impactnet.models.geometry.poses.first_contact_poses`, ``orientation="paper"``).
 2. Everything is expressed with A at the origin and identity orientation; the exact solver
    (:func:`impactnet.models.box.exact.box_box`) labels each pair.
-3. Inputs (6): B's centre in A's frame (x, y, z, metres), then B's Euler angles relative to A
-   (roll, pitch, yaw, radians). Targets (4):
-   :func:`impactnet.models.geometry.spherical.paper_angles`.
+3. Inputs (6): B's centre in A's frame (x, y, z, metres), then B's Euler angles relative to A (roll,
+   pitch, yaw, radians). Targets (4): :func:`impactnet.models.geometry.spherical.paper_angles`.
 
 "With discontinuities": every contact of that stream. "Without discontinuities": one region,
 :data:`CANONICAL_REGION` = (face-vertex, A's face +x, B's vertex (-,-,-)): B's corner on A's +x
-face. Inside it the point is the centre of pressure of the small footprint around B's corner
-(within the depth of the corner) and the normal is A's +x normal, both smooth in the pose. The 8
-sign flips ``S = diag(s)``, applied to both boxes (``t -> S t``, ``R -> S R S``), leave the whole
-sampling distribution unchanged (they map (roll, pitch, yaw) to (s1 s2 roll, s0 s2 pitch, s0 s1
-yaw), a uniform draw on the symmetric box to itself, and a uniform direction to a uniform
-direction); they map the 8 mirror images of the region (A's face +-x, B's vertex with the opposite
-x sign) onto it. So the data are
-drawn by rejection from the stream, each mirror-image row folded onto the canonical region by
-its flip and re-labelled by the exact solver; the result is distributed as the stream
-conditioned on the region, at 8x the yield. Rows whose fresh label is not the region (ties on
-a region boundary) are dropped and counted.
+face. Inside it the point is the centre of pressure of the small footprint around B's corner (within
+the depth of the corner) and the normal is A's +x normal, both smooth in the pose. The 8 sign flips
+``S = diag(s)``, applied to both boxes (``t -> S t``, ``R -> S R S``), leave the whole sampling
+distribution unchanged (they map (roll, pitch, yaw) to (s1 s2 roll, s0 s2 pitch, s0 s1 yaw), a
+uniform draw on the symmetric box to itself, and a uniform direction to a uniform direction); they
+map the 8 mirror images of the region (A's face +-x, B's vertex with the opposite x sign) onto it.
+So the data are drawn by rejection from the stream, each mirror-image row folded onto the canonical
+region by its flip and re-labelled by the exact solver; the result is distributed as the stream
+conditioned on the region, at 8x the yield. Rows whose fresh label is not the region (ties on a
+region boundary) are dropped and counted.
 """
 from __future__ import annotations
 

@@ -71,7 +71,7 @@ def protocol_lines(results: dict, t: dict) -> list[str]:
              "Labels come from the "
              "exact solver (`impactnet.models.box.exact.box_box`); the impact point is its centre "
              "of pressure "
-             "(DESIGN.md, point rule v2).",
+             "(docs/design.md, point rule v2).",
              "* **With discontinuities**: every contact of that stream (all contact types and "
              "features).",
              f"* **Without discontinuities**: one discontinuity-free region, contact type "

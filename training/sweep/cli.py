@@ -4,18 +4,15 @@
                     [--pairs A/B ...] [--quick] [--out STORE] [--show]
 
 Runs trials of the Optuna study NAME (:mod:`impactnet.training.sweep.run`) until it has ``--trials``
-complete
-or pruned ones, then writes ``report.md`` and ``pareto.png``
-(:mod:`impactnet.training.sweep.report`) and,
-with ``--out``, retrains the cheapest trial that meets the scene's tolerance (on the trial's
-pairs) on all the scene's pairs and publishes it as a new version of that bundle store
-(per-pair decisions and validation gate as in `impactnet train`: a pair whose learned path is
-too slow or misses the tolerance is served exact-only; what serves each pair, and why, is
-printed).
-Storage: SQLite under ``runs/sweeps/NAME/`` by default; any SQLAlchemy URL (e.g.
-``postgresql://user:pw@host/db``) shares the study between machines that run the same command.
-Rerunning the command resumes the study by name. ``--show`` runs no trial: it prints the
-study's state and the Pareto table (and publishes with ``--out``).
+complete or pruned ones, then writes ``report.md`` and ``pareto.png``
+(:mod:`impactnet.training.sweep.report`) and, with ``--out``, retrains the cheapest trial that meets
+the scene's tolerance (on the trial's pairs) on all the scene's pairs and publishes it as a new
+version of that bundle store (per-pair decisions and validation gate as in `impactnet train`: a pair
+whose learned path is too slow or misses the tolerance is served exact-only; what serves each pair,
+and why, is printed). Storage: SQLite under ``runs/sweeps/NAME/`` by default; any SQLAlchemy URL
+(e.g. ``postgresql://user:pw@host/db``) shares the study between machines that run the same command.
+Rerunning the command resumes the study by name. ``--show`` runs no trial: it prints the study's
+state and the Pareto table (and publishes with ``--out``).
 
 Exit status: 0 done; 2 bad arguments, scene or study; 3 no trial meets the tolerance or the
 gate refused the pick (``current`` untouched); 130 interrupted.

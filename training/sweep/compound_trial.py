@@ -62,16 +62,6 @@ def suggest_compound(trial, space: CompoundSpace,
                                     hidden=(expert_width, expert_width)))
 
 
-def objective_for(config, scene):
-    """The trial of ``scene``: box pairs (:class:`impactnet.training.sweep.run.Objective`) or
-    compound pairs (:class:`CompoundObjective`)."""
-    if compound_pairs(scene):
-        return CompoundObjective(config, scene)
-    from impactnet.training.sweep.run import Objective
-
-    return Objective(config, scene)
-
-
 class CompoundObjective:
     """A trial on compound pairs (module docstring)."""
 

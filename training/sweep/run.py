@@ -16,8 +16,7 @@ What a trial optimises (three objectives, all minimised):
 
 A trial trains :attr:`SweepConfig.pair_keys` only (default: the scene's first pair) with the
 settings :func:`impactnet.training.sweep.space.suggest` draws; the pick is retrained on every pair
-of the
-scene (:mod:`impactnet.training.sweep.report` and :func:`publish_pick`).
+of the scene (:mod:`impactnet.training.sweep.report` and :func:`publish_pick`).
 
 Pruning: Optuna's pruners do not support multi-objective studies, so a trial is pruned by
 :func:`hopeless` between its pairs: after pair k its validation ``auto`` fallback share (the
@@ -49,11 +48,14 @@ from pathlib import Path
 import numpy as np
 
 from impactnet.models.scenes import Scene
+from impactnet.training.data.compound_dataset import compound_pairs
 from impactnet.training.data.pair_cache import PairCache
 from impactnet.training.evaluate.scene_figures import pooled_figures
 from impactnet.training.fit.pair import PairTrainConfig
 from impactnet.training.fit.pair_eval import MISMATCH_REPORTED
 from impactnet.training.jobs.scene import TrainConfig, build_manifest, quick_config, train_pairs
+from impactnet.training.sweep.compound_trial import CompoundObjective
+from impactnet.training.sweep.pruning import completed_values, hopeless
 from impactnet.training.sweep.space import SweepSpace, quick_space, suggest
 
 #: The objectives, in the order the study stores them (all minimised).
@@ -166,14 +168,6 @@ def _check_identity(study, config: SweepConfig, scene: Scene) -> None:
                          + "); use another --study name or the same settings")
 
 
-def hopeless(value: float, others: list[float], startup: int, percentile: float) -> bool:
-    """True where ``value`` (lower is better) is worse than the ``percentile`` percentile of
-    ``others`` (the completed trials' values at the same step), once there are ``startup``."""
-    if len(others) < max(1, startup):
-        return False
-    return bool(value > np.percentile(np.asarray(others, dtype=float), percentile))
-
-
 _POSES: dict[tuple, tuple] = {}
 
 
@@ -209,14 +203,6 @@ def _finite(value, cap: float) -> float:
     return cap if value is None or not np.isfinite(value) else float(min(value, cap))
 
 
-def _completed_values(study, key: str) -> list[float]:
-    """``key`` user attribute of every complete trial that has it."""
-    from optuna.trial import TrialState
-
-    trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))
-    return [t.user_attrs[key] for t in trials if key in t.user_attrs]
-
-
 class Objective:
     """A trial: train the trial's pairs, prune between pairs, measure errors and cost."""
 
@@ -238,7 +224,7 @@ class Objective:
             value = results[-1].block["validation"]["auto"]["fallback_share"]
             key = f"step{step}_val_fallback"
             trial.set_user_attr(key, value)
-            if hopeless(value, _completed_values(trial.study, key), self.config.prune_startup,
+            if hopeless(value, completed_values(trial.study, key), self.config.prune_startup,
                         self.config.prune_percentile):
                 raise optuna.TrialPruned(f"validation fallback share {value:.3f} after pair "
                                          f"{step} is worse than the completed trials'")
@@ -250,7 +236,7 @@ class Objective:
 
     def _measure(self, train: TrainConfig, results: list, number: int) -> dict:
         """Test figures of the trial's pairs and the measured cost of its bundle."""
-        from impactnet.models.bundle.format import write_bundle
+        from impactnet.models.learned.bundle_loader import write_bundle
         from impactnet.models.predictors import load_predictor
 
         tensors = {k: v for r in results for k, v in r.tensors.items()}
@@ -317,10 +303,10 @@ def run_worker(config: SweepConfig, scene: Scene, max_failures: int = 3) -> list
     """
     from optuna.trial import TrialState
 
-    from impactnet.training.sweep.compound_trial import objective_for
-
     study = open_study(config, scene)
-    objective, ran, failures = objective_for(config, scene), [], 0
+    objective = CompoundObjective(config, scene) if compound_pairs(scene) else \
+        Objective(config, scene)
+    ran, failures = [], 0
     _log(f"study {config.study!r}: {config.trials} trials of {', '.join(study.user_attrs['pairs'])}"
          f" on {public_url(config.storage)}")
     while failures < max_failures:

@@ -20,11 +20,9 @@ name               what                                    where
 ``rows``           labelled rows drawn per pair            ``PairDataConfig.rows``
 =================  ======================================  ==================================
 
-The classifier's width is not searched: the committee's region classifier is the exact
-labeller (:mod:`impactnet.models.learned.region_label`), which has no width. The fields the space
-needs are
-checked at import, so a rename fails loudly here rather than as a silently ignored
-parameter.
+The classifier's width is not searched: the committee's region classifier is the exact labeller
+(:mod:`impactnet.models.learned.region_label`), which has no width. The fields the space needs are
+checked at import, so a rename fails loudly here rather than as a silently ignored parameter.
 """
 from __future__ import annotations
 

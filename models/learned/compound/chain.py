@@ -7,11 +7,11 @@ For N poses of one compound pair (body A, body B, both anywhere in the world):
    probabilities. A row outside any classifier's domain is *unsure*.
 2. With ``fallback`` (mode ``auto``), unsure rows go to the exact compound oracle
    (predictor ``oracle``). Without it (mode ``committee``) the chain answers them too.
-3. Every candidate label (probability >= the group's ``candidate_min``) goes to the expert of
-   the coarse region the classifier names for it
-   (:mod:`impactnet.models.learned.compound.regions`): the region's committee where training
-   chose one and the classifier is sure (probability >= its ``sure_min``) and the members
-   agree, else the exact part-pair solver, which also drops candidates that do not touch.
+3. Every candidate label (probability >= the group's ``candidate_min``) goes to the expert of the
+   coarse region the classifier names for it (:mod:`impactnet.models.learned.compound.regions`): the
+   region's committee where training chose one and the classifier is sure (probability >= its
+   ``sure_min``) and the members agree, else the exact part-pair solver, which also drops candidates
+   that do not touch.
 4. The part contacts of all sources, pose-major, and the body summary of DESIGN.md.
 
 Each row names its predictor: ``oracle`` (fallback), ``learned`` (at least one part contact
@@ -21,6 +21,7 @@ solver answered them).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -38,6 +39,11 @@ from impactnet.models.geometry.rotations import quaternion_to_matrix, validate_q
 from impactnet.models.learned.compound.classifier import GroupClassifier
 from impactnet.models.learned.compound.experts import RegionCommittee
 from impactnet.models.learned.compound.groups import relative_pose
+from impactnet.models.learned.compound.kernel_classify import (
+    ClassifierSet,
+    classifier_set,
+    classify,
+)
 
 #: Predictor names of a compound row.
 LEARNED, EXACT_PART, ORACLE = "learned", "exact-part", "oracle"
@@ -63,22 +69,24 @@ class CompoundChain:
     committees: dict  # (part_a, part_b, region code) -> RegionCommittee, the regions that
     # chose one
 
+    @cached_property
+    def compiled(self) -> tuple[ClassifierSet, np.ndarray, np.ndarray]:
+        """(the classifiers as the kernel takes them, every label's (A's part, B's part) (V, 2)
+        and its classifier's ``candidate_min`` (V,)), labels in classifier order."""
+        labels = [np.asarray(clf.labels, np.int64).reshape(-1, 2) for clf in self.classifiers]
+        floor = [np.full(len(clf.labels), clf.candidate_min) for clf in self.classifiers]
+        return (classifier_set(self.classifiers), np.concatenate(labels),
+                np.concatenate(floor))
+
     def candidates(self, position, rotation):
         """(pose (k,), part_a (k,), part_b (k,), probability (k,), region (k,), inside (n,)
-        bool) of B's poses in A's frame: every candidate label, its coarse region."""
-        n = len(position)
-        inside = np.ones(n, bool)
-        pieces = []
-        for clf in self.classifiers:
-            prob, region_logits, ok = clf.probabilities(position, rotation)
-            inside &= ok
-            pose, label = np.nonzero(prob >= clf.candidate_min)
-            region, _ = clf.regions(region_logits, pose, label)
-            pieces.append((pose, clf.labels[label, 0], clf.labels[label, 1], prob[pose, label],
-                           region))
-        pose, part_a, part_b, prob, region = (np.concatenate(c) for c in zip(*pieces))
-        order = np.argsort(pose, kind="stable")
-        return pose[order], part_a[order], part_b[order], prob[order], region[order], inside
+        bool) of B's poses in A's frame: every candidate label, its coarse region, pose-major
+        (labels in classifier order within a pose)."""
+        classifiers, labels, floor = self.compiled
+        found = classify(classifiers, position, rotation)
+        pose, label = np.nonzero(found.probability >= floor)
+        return (pose, labels[label, 0], labels[label, 1], found.probability[pose, label],
+                found.region[pose, label], found.inside)
 
     def answer(self, position_a, quaternion_a, position_b, quaternion_b,
                fallback: bool = True) -> ChainAnswer:
@@ -178,7 +186,7 @@ def merged(pieces, n: int) -> PartContacts:
 
 def chain_of(models, parts_a, parts_b) -> CompoundChain:
     """The chain of a bundle's compound pair models
-    (:class:`impactnet.models.bundle.compound_format.CompoundPairModels`) over the scene's
+    (:class:`impactnet.models.learned.compound.bundle_pairs.CompoundPairModels`) over the scene's
     parts."""
     return CompoundChain(models.key, tuple(parts_a), tuple(parts_b), models.classifiers,
                          dict(models.committees))

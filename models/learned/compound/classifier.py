@@ -1,23 +1,26 @@
 """The served classifier of one part group: which of its part pairs touch, and in which coarse
 region (issue #21, step 1).
 
-An MLP (:mod:`impactnet.models.learned.mlp`, trained by
-:mod:`impactnet.training.compound.classify`) maps the group's features
-(:func:`impactnet.models.learned.compound.groups.group_features`) to one logit per label, a part
-pair seen touching in training, then one logit per *region slot*: a (label, coarse region) pair
-seen in training (:mod:`impactnet.models.learned.compound.regions`). Probabilities are
-``sigmoid(logit / temperature)``, the temperature calibrated on validation rows; a touching
-label's region is the slot of largest logit among its own (a softmax per label). A label with
-a probability of at least ``candidate_min`` (calibrated so that no validation row misses a
+An MLP (:mod:`impactnet.models.learned.mlp`, trained by :mod:`impactnet.training.compound.classify`)
+maps the group's features (:func:`impactnet.models.learned.compound.groups.group_features`) to one
+logit per label, a part pair seen touching in training, then one logit per *region slot*: a (label,
+coarse region) pair seen in training (:mod:`impactnet.models.learned.compound.regions`).
+Probabilities are ``sigmoid(logit / temperature)``, the temperature calibrated on validation rows; a
+touching label's region is the slot of largest logit among its own (a softmax per label). A label
+with a probability of at least ``candidate_min`` (calibrated so that no validation row misses a
 touching pair) is a candidate, which its region's expert then answers. A row whose features lie
-outside the box of the training rows (widened by :data:`DOMAIN_MARGIN_REL`) is *unsure*: the
-chain sends it to the oracle.
+outside the box of the training rows (widened by :data:`DOMAIN_MARGIN_REL`) is *unsure*: the chain
+sends it to the oracle.
 
 A classifier may be shared by the four corners of symmetric bodies: each corner's group then
 sees its features through its mirror (``mirror``, :func:`impactnet.models.learned.compound.
 groups.mirror_features`) and names its own part pairs (the shared labels mapped through the
 mirror), so one network learns from four times the rows. Its regions are named in corner fl's
 frame and mapped back through the mirror.
+
+The whole stage (features, MLP, probabilities, regions, domain) is one compiled row function
+(:mod:`impactnet.models.learned.compound.kernel_classify`), run for one classifier by
+:meth:`GroupClassifier.classify` and for all the classifiers of a pair at once by the chain.
 """
 from __future__ import annotations
 
@@ -26,15 +29,20 @@ from functools import cached_property
 
 import numpy as np
 
-from impactnet.models.learned.compound.groups import PartGroup, group_features, mirror_features
-from impactnet.models.learned.compound.regions import mirror_regions
-from impactnet.models.learned.mlp import MLP
+from impactnet.models.compiled import PARALLEL_MIN_ROWS
+from impactnet.models.learned.compound.groups import N_GROUP_FEATURES, PartGroup
+from impactnet.models.learned.compound.kernel_classify import (
+    LOGIT_CLIP,
+    Classified,
+    ClassifierSet,
+    classifier_set,
+    classify,
+)
+from impactnet.models.learned.mlp import MLP, MLPSpec
 
 #: The training rows' range of each feature is widened by this share of its width on each
 #: side: a pose a little past the drawn families is still answered, one far past is not.
 DOMAIN_MARGIN_REL = 0.02
-#: Logits are clipped to +-this before the sigmoid (float64 exp stays finite).
-LOGIT_CLIP = 60.0
 
 
 @dataclass(frozen=True)
@@ -54,9 +62,15 @@ class GroupClassifier:
     mirror: tuple[float, float, float] = (1.0, 1.0, 1.0)  # the features are seen through this
     # mirror (a corner pooled with the others in corner fl's frame; identity: its own frame)
 
-    def probabilities(self, position, rotation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(probabilities (n, v) float64, region logits (n, r) float32, inside (n,) bool: the
-        row lies in the domain).
+    @cached_property
+    def compiled(self) -> ClassifierSet:
+        """This classifier alone as the kernel takes it."""
+        return classifier_set([self])
+
+    def classify(self, position, rotation) -> Classified:
+        """Its labels' probabilities, regions (in the group's own frame) and shares, and whether
+        each pose lies in the domain
+        (:func:`impactnet.models.learned.compound.kernel_classify.classify`).
 
         Parameters
         ----------
@@ -65,43 +79,12 @@ class GroupClassifier:
         rotation : ndarray, shape (n, 3, 3)
             B's orientation in A's frame.
         """
-        x = mirror_features(group_features(self.group, position, rotation), self.mirror)
-        inside = ((x >= self.domain_lo) & (x <= self.domain_hi)).all(axis=1)
-        if self.mlp is None:
-            return np.zeros((len(x), 0)), np.zeros((len(x), 0), np.float32), inside
-        logits = self.mlp.forward(x.astype(np.float32))
-        v = len(self.labels)
-        return sigmoid_probabilities(logits[:, :v], self.temperature), logits[:, v:], inside
-
-    @cached_property
-    def slot_table(self) -> np.ndarray:
-        """(v, s) int: each label's region slots, padded with -1 (s: the most of any label)."""
-        v = len(self.labels)
-        counts = np.bincount(self.region_label, minlength=v)
-        table = np.full((v, max(int(counts.max(initial=0)), 1)), -1, np.int64)
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        slot = np.arange(len(self.region_label))
-        table[self.region_label, slot - starts[self.region_label]] = slot
-        return table
-
-    def regions(self, region_logits: np.ndarray, pose: np.ndarray, label: np.ndarray):
-        """(codes (k,) int64, probability (k,)): the coarse region of candidates ``(pose,
-        label)`` (k,) each, the slot of largest logit among the label's, in the group's own
-        frame (mapped back through the mirror), and its softmax probability among them."""
-        if not len(pose):  # no candidate (or no label at all)
-            return np.zeros(0, np.int64), np.zeros(0)
-        slots = self.slot_table[label]  # (k, s)
-        logits = np.where(slots >= 0, region_logits[pose[:, None], np.maximum(slots, 0)],
-                          -np.inf).astype(np.float64)
-        best = np.argmax(logits, axis=1)
-        top = logits[np.arange(len(best)), best]
-        share = 1.0 / np.sum(np.exp(logits - top[:, None]), axis=1)
-        return mirror_regions(self.region_codes[slots[np.arange(len(best)), best]],
-                              self.mirror), share
+        return classify(self.compiled, position, rotation)
 
 
 def sigmoid_probabilities(logits: np.ndarray, temperature: float) -> np.ndarray:
-    """``sigmoid(logits / temperature)``, clipped as served (training's calibration uses it)."""
+    """``sigmoid(logits / temperature)``, clipped as the kernel serves it, for training's
+    calibration (on logits from :meth:`impactnet.models.learned.mlp.MLP.forward`)."""
     z = np.clip(np.asarray(logits, np.float64) / temperature, -LOGIT_CLIP, LOGIT_CLIP)
     return 1.0 / (1.0 + np.exp(-z))
 
@@ -112,3 +95,21 @@ def widened_domain(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = x.min(axis=0), x.max(axis=0)
     pad = DOMAIN_MARGIN_REL * (hi - lo)
     return lo - pad, hi + pad
+
+
+def warm_up() -> None:
+    """Compile (or load) the classifier kernels
+    (:mod:`impactnet.models.learned.compound.kernel_classify`) for the argument types
+    :meth:`GroupClassifier.classify` and the chain pass: one pose, and serial and parallel
+    batches (a tiny two-classifier set, zero weights)."""
+    spec = MLPSpec("tanh", (N_GROUP_FEATURES, 2, 3), "group-pose-v1", "part-labels-regions-v1")
+    mlp = MLP(spec, [np.zeros((2, N_GROUP_FEATURES)), np.zeros((3, 2))],
+              [np.zeros(2), np.zeros(3)], np.zeros(N_GROUP_FEATURES),
+              np.ones(N_GROUP_FEATURES), np.zeros(3), np.ones(3))
+    group = PartGroup("body", (), (), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    one = GroupClassifier(group, np.zeros((1, 2), np.int64), np.zeros(2, np.int64),
+                          np.array([36, 37]), mlp, 1.0, 0.5, np.full(N_GROUP_FEATURES, -1.0),
+                          np.full(N_GROUP_FEATURES, 1.0))
+    classifiers = classifier_set([one, one])
+    for n in (1, PARALLEL_MIN_ROWS):
+        classify(classifiers, np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)))

@@ -2,10 +2,9 @@
 (:mod:`impactnet.service.reload`).
 
 The route exists only when ``IMPACTNET_ADMIN_TOKEN`` is set
-(:func:`impactnet.service.app.create_app`
-includes this router then; otherwise the path answers 404 like any unknown one). The token
-comes as ``Authorization: Bearer <token>``: none (or another scheme) is 401, a wrong one 403,
-compared in constant time.
+(:func:`impactnet.service.app.create_app` includes this router then; otherwise the path answers 404
+like any unknown one). The token comes as ``Authorization: Bearer <token>``: none (or another
+scheme) is 401, a wrong one 403, compared in constant time.
 """
 from __future__ import annotations
 

@@ -6,10 +6,11 @@ from pathlib import Path
 from fastapi import APIRouter, Response
 
 from impactnet.models.contacts import CONTACT_TYPES, POINT_RULE, POINT_RULE_VERSION
+from impactnet.models.domain import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M
 from impactnet.models.geometry import box_features as bf
 from impactnet.service.api.deps import RuntimeDep, ServingDep
 from impactnet.service.api.routers import ERRORS
-from impactnet.service.api.schemas import POSITION_MAX_M, SIZE_MAX_M, SIZE_MIN_M, ModelsResponse
+from impactnet.service.api.schemas import ModelsResponse
 
 router = APIRouter(tags=["models"])
 

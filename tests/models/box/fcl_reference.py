@@ -1,7 +1,7 @@
 """Test helper: python-fcl's box-box collide as an independent reference, in impactnet terms.
 
 Not a test module. :func:`fcl_box_box` loops over rows (FCL has no batch API) and returns
-FCL's contacts converted to impactnet conventions (DESIGN.md: normal from A towards B,
+FCL's contacts converted to impactnet conventions (docs/design.md: normal from A towards B,
 depth >= 0, point on the mid-surface).
 
 python-fcl 0.7.0.11 conventions, found empirically (cubes of edge 2 unless said otherwise;

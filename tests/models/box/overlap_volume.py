@@ -1,9 +1,10 @@
-"""Test helper: DESIGN.md's centre of pressure of a face contact, by exact polyhedral integration.
+"""Test helper: docs/design.md's centre of pressure of a face contact, by exact polyhedral
+integration.
 
 Not a test module, and independent of the solver: NumPy and SciPy's convex hull only, nothing
 from ``models`` (no manifold, no clipping, no pressure code).
 
-The rule (DESIGN.md): the contact region is the footprint on the reference face of every
+The rule (docs/design.md): the contact region is the footprint on the reference face of every
 incident face looking towards it, clipped to the face's side planes and to depth >= 0; the
 point is the depth-weighted tangential centroid, ``int d^2 / (2 int d)`` below the plane. That
 is the 3-D centroid of the solid between the reference plane and the incident box's front
@@ -101,7 +102,7 @@ def intersection_centroid(first, second) -> tuple:
 
 
 def centre_of_pressure(reference_box, incident_box, normal, floor=0.0) -> np.ndarray:
-    """DESIGN.md's point (3,) (metres) of a face contact whose reference face is the reference
+    """docs/design.md's point (3,) (metres) of a face contact whose reference face is the reference
     box's face with outward unit ``normal`` (world frame, along one of the box's axes).
 
     Boxes are ``(size (3,), position (3,), rotation (3, 3))``. The incident box is swept along
@@ -109,9 +110,8 @@ def centre_of_pressure(reference_box, incident_box, normal, floor=0.0) -> np.nda
     vertex past the reference plane (the extrusion of the module docstring).
 
     ``floor`` (metres) reproduces a pressure floor tau (:mod:`impactnet.models.box.pressure`): the
-    region
-    ``d >= -tau`` under the pressure ``d + tau`` is the same solid with the reference face moved
-    out by tau, and the point sits half the true depth ``d = p - tau`` below the true plane,
+    region ``d >= -tau`` under the pressure ``d + tau`` is the same solid with the reference face
+    moved out by tau, and the point sits half the true depth ``d = p - tau`` below the true plane,
     i.e. tau / 2 further in than that solid's centroid.
     """
     size, position, rotation = (np.asarray(v, float) for v in reference_box)

@@ -1,14 +1,13 @@
 """Continuity of the exact solver's answer in the pose (issues #11 and #18).
 
-The point is the centre of pressure (CoP) of the overlap footprint (DESIGN.md): continuous in
+The point is the centre of pressure (CoP) of the overlap footprint (docs/design.md): continuous in
 the pose across face-face, edge-face and vertex-face, and a face contact tilted by a tiny angle
 stays that face contact (the face/edge tie rule of :mod:`impactnet.models.box.sat`). B rests on A's
-top face
-(:mod:`tests.models.box.sweeps`: A at the origin, level; B's lowest corner kept ``d`` deep by a
-pivot on the contact). Symbols: L the larger body's largest edge (m), d the depth (m), theta a
-tilt and psi a yaw (rad), x a shift (m). Sections: A stacking with a slight tilt (#11),
-B continuity sweeps (#18), C swapping A and B, D batch against single pairs, E exactly
-touching features (and no NaN anywhere: every solve checks it).
+top face (:mod:`tests.models.box.sweeps`: A at the origin, level; B's lowest corner kept ``d`` deep
+by a pivot on the contact). Symbols: L the larger body's largest edge (m), d the depth (m), theta a
+tilt and psi a yaw (rad), x a shift (m). Sections: A stacking with a slight tilt (#11), B continuity
+sweeps (#18), C swapping A and B, D batch against single pairs, E exactly touching features (and no
+NaN anywhere: every solve checks it).
 """
 import functools
 

@@ -1,7 +1,7 @@
 """Exact solver at the numerical extremes: parallel faces and edges, huge coordinates, tiny and
 huge boxes, needles, gimbal lock. Every answer must be finite.
 
-The points of the tilted face contacts are checked against DESIGN.md's centre of pressure
+The points of the tilted face contacts are checked against docs/design.md's centre of pressure
 integrated exactly over polyhedra (``tests/models/box/overlap_volume.py``, no solver code), with
 the solver's pressure floor (:data:`impactnet.models.box.pressure.PRESSURE_FLOOR_REL`) reproduced.
 """
@@ -32,7 +32,7 @@ UP = np.array([0.0, 0.0, 1.0])
 
 
 def rule_point(size_a, size_b, position_b, quaternion_b):
-    """DESIGN.md's point of B pressed into the top face of A (axis-aligned at the origin), with
+    """docs/design.md's point of B pressed into the top face of A (axis-aligned at the origin), with
     the solver's pressure floor (PRESSURE_FLOOR_REL x the sum of the largest half-extents)."""
     floor = PRESSURE_FLOOR_REL * 0.5 * (max(size_a) + max(size_b))
     rot_b = quaternion_to_matrix(np.atleast_2d(quaternion_b))[0]

@@ -46,11 +46,11 @@ def check_invariants(p):
     assert_finite(c)
     np.testing.assert_allclose(np.linalg.norm(c.normal, axis=1), 1.0, atol=1e-12)
     assert (c.depth >= 0).all()
-    # The point lies inside both boxes grown by the depth and the pressure floor: the centre
-    # of pressure sits at most half the depth below the reference plane, over a footprint
-    # whose incident surface is at most the floor tau above that plane
-    # (impactnet.models.box.kernel_pressure: the
-    # region is d + tau >= 0), so it is at most d / 2 + tau from the incident box.
+    # The point lies inside both boxes grown by the depth and the pressure floor: the centre of
+    # pressure sits at most half the depth below the reference plane, over a footprint whose
+    # incident surface is at most the floor tau above that plane
+    # (impactnet.models.box.kernel_pressure: the region is d + tau >= 0), so it is at most d / 2 +
+    # tau from the incident box.
     grown = c.depth + PRESSURE_FLOOR_REL * scale
     for side in ("a", "b"):
         rot = quaternion_to_matrix(p[f"quaternion_{side}"])

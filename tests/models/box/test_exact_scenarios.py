@@ -1,6 +1,6 @@
 """Exact solver: scenarios whose answers are known by hand.
 
-Points follow DESIGN.md's centre of pressure: the depth-weighted centroid of the footprint,
+Points follow docs/design.md's centre of pressure: the depth-weighted centroid of the footprint,
 half the local depth below the reference face, i.e. the centroid of the solid between the
 face and the incident box. A vertex pressed into a face cuts off a tetrahedron (the point is
 the mean of its four corners: d / 4 below the face), an edge lying on a face a wedge (the

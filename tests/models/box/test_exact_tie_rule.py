@@ -1,12 +1,12 @@
 """The tie rule between face and edge axes (models/box/kernel_sat.py, rules 1-3) and its
 documented worst case.
 
-The figures of models/box/kernel_sat.py's docstring are backed here by measurements on
-first-contact fuzz (``impactnet.models.geometry.poses.first_contact_poses``: every size family,
-every orientation family) and by
-scenarios whose answer is known by hand. ``c`` is the least overlap over the 15 SAT axes (the
-true penetration depth), ``u`` its axis; the worst case allowed is ``max(DEPTH_GAIN_TOL_REL x
-scale, 2 FACE_AXIS_ANGLE_TOL (rho_A + rho_B))``, rho a box's half diagonal.
+The figures of models/box/kernel_sat.py's docstring are backed here by measurements on first-contact
+fuzz (``impactnet.models.geometry.poses.first_contact_poses``: every size family, every orientation
+family) and by scenarios whose answer is known by hand. ``c`` is the least overlap over the 15 SAT
+axes (the true penetration depth), ``u`` its axis; the worst case allowed is
+``max(DEPTH_GAIN_TOL_REL x scale, 2 FACE_AXIS_ANGLE_TOL (rho_A + rho_B))``, rho a box's half
+diagonal.
 
 Measured on the default run (seed 1000, 3000 poses x 28 cases = 84,000; the slow run, seed
 1001, 20,000 x 28 = 560,000, in brackets):

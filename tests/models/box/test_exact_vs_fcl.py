@@ -3,10 +3,9 @@
 FCL prefers face axes by a 5 % factor and culls manifolds to 4 points (see
 tests/models/box/fcl_reference.py); ours prefers a face axis only inside the tie rule's angle band
 (:mod:`impactnet.models.box.sat`: a cross axis within FACE_AXIS_ANGLE_TOL of the least-overlap
-face's normal
-is that face's contact). The comparison is exact where neither rule applies; where FCL picked
-another axis ours must be the shallower one; inside our band, where FCL answers the edge pair,
-ours must be the face within the documented worst case. The band is computed here from
+face's normal is that face's contact). The comparison is exact where neither rule applies; where FCL
+picked another axis ours must be the shallower one; inside our band, where FCL answers the edge
+pair, ours must be the face within the documented worst case. The band is computed here from
 ``impactnet.models.geometry.approach.axis_terms``, an implementation of the 15 axes apart from the
 solver's.
 """

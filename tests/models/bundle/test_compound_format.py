@@ -8,7 +8,8 @@ import copy
 import numpy as np
 import pytest
 
-from impactnet.models.bundle.format import BundleError, read_bundle, write_bundle
+from impactnet.models.bundle.format import BundleError
+from impactnet.models.learned.bundle_loader import read_bundle, write_bundle
 
 
 def _mlp_tensors(name: str, widths: tuple[int, ...], seed: int) -> dict:

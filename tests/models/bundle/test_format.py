@@ -9,7 +9,8 @@ import pytest
 import safetensors.numpy
 
 from impactnet.models.bundle import format as bd
-from impactnet.models.bundle.format import BundleError, read_bundle, write_bundle
+from impactnet.models.bundle.format import BundleError
+from impactnet.models.learned.bundle_loader import read_bundle, write_bundle
 from tests.models.learned.test_mlp import random_mlp
 
 REGIONS = ["none", "face-vertex:0:18", "edge-edge:6:6"]

@@ -9,7 +9,7 @@ import time
 import pytest
 
 from impactnet.models import load_predictor
-from impactnet.models.bundle.format import BundleError, read_bundle
+from impactnet.models.bundle.format import BundleError
 from impactnet.models.bundle.store import (
     CURRENT,
     VERSIONS,
@@ -21,6 +21,7 @@ from impactnet.models.bundle.store import (
     resolve_bundle,
     set_current,
 )
+from impactnet.models.learned.bundle_loader import read_bundle
 from tests.models.learned.learned_fixtures import write_test_bundle
 
 
@@ -95,7 +96,7 @@ def test_a_reader_polling_in_a_tight_loop_never_sees_a_partial_version(tmp_path)
     hidden temporary folder renamed into ``versions/``, then ``set_current``) while a reader
     resolves and reads the store as fast as it can: every read is a complete, verified
     version whose manifest names its folder, and the versions read never go back."""
-    from impactnet.models.bundle.format import write_bundle
+    from impactnet.models.learned.bundle_loader import write_bundle
     from tests.models.learned.learned_fixtures import bundle_content
 
     manifest, tensors = bundle_content()

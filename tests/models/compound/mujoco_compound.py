@@ -28,7 +28,7 @@ onto that body's part, all inside its other parts) is left out: the oracle's doc
 applied to MuJoCo's own contacts. The default pass's polygon corners are what make it
 reliable: the single EPA contact is one witness point, which may sit on the seam between two
 ring pieces and so inside the neighbour. Conventions as in
-``impactnet.training.bench.mujoco_reference`` (which the model tests may not import).
+``impactnet.training.bench.accuracy.mujoco_reference`` (which the model tests may not import).
 """
 from __future__ import annotations
 

@@ -93,11 +93,12 @@ def test_one_row_is_its_row_of_a_batch():
     work = cc.make_work(*cc.work_sizes(table, table))
     for k in (0, 7, 100, len(ia) - 1):
         out = cc.contact_rows_for(len(ia))
-        cc.contact_rows(table.arrays, ia, table.arrays, ib, t, rot, pa, ra, out, k, k + 1, work)
+        cc.contact_rows(table.arrays, ia, table.arrays, ib, t, rot, pa, ra, out, k, k + 1, work,
+                         True)
         for field, column in out._asdict().items():
             np.testing.assert_array_equal(column[k], getattr(batch, field)[k], err_msg=field)
         one = cs.axis_rows(1)
-        cs.sat_rows(table.arrays, ia, table.arrays, ib, t, rot, one, k, k, k + 1, work.sat)
+        cs.sat_rows(table.arrays, ia, table.arrays, ib, t, rot, one, k, k, k + 1, work.sat, True)
         for field, column in one._asdict().items():
             np.testing.assert_array_equal(column[0], getattr(axis, field)[k], err_msg=field)
 

@@ -104,14 +104,16 @@ def test_one_pose_equals_its_row_of_a_batch():
 
 
 def test_blocks_of_poses_give_the_same_answer_as_one_block(monkeypatch):
-    from impactnet.models.compound import oracle
+    """The serial call on all poses and the parallel path in blocks of 7 poses answer alike."""
+    from impactnet.models.compound import pipeline
 
     rng = np.random.default_rng(11)
     n = 50
     position_b = np.c_[rng.uniform(-0.1, 0.1, (n, 2)), HEIGHT - rng.uniform(-1e-3, 3e-3, n)]
     quaternion_b = random_quaternions(n, rng) * 0 + [1.0, 0, 0, 0]
     whole = compound_contacts(FORTY, np.zeros(3), IDENTITY, FORTY, position_b, quaternion_b)
-    monkeypatch.setattr(oracle, "ORACLE_CHUNK", 7)
+    monkeypatch.setattr(pipeline, "ORACLE_CHUNK", 7)
+    monkeypatch.setattr(pipeline, "PARALLEL_MIN_ROWS", 1)
     blocks = compound_contacts(FORTY, np.zeros(3), IDENTITY, FORTY, position_b, quaternion_b)
     for name in ("pose", "part_a", "part_b", "offsets"):
         np.testing.assert_array_equal(getattr(blocks, name), getattr(whole, name), err_msg=name)

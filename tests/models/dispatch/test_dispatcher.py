@@ -80,6 +80,19 @@ def test_rows_that_cannot_touch_get_their_closest_part_pair_s_direction(monkeypa
     assert np.linalg.norm(got.body["normal"][1]) == pytest.approx(1.0)
 
 
+def test_rows_that_cannot_touch_beside_touching_ones_carry_the_manifold_columns_asked_for():
+    """Regression: a batch asking for the manifold whose compound rows include one that cannot
+    touch (no broadphase, no contacts) merged its slices without the manifold's columns."""
+    got = Dispatcher().answer(_pairs([0, 0, 2], [1, 1, 3], [LANDED, [0, 0, 50.0], [0, 0, 0.7]]),
+                              include=("manifold",))
+    assert got.body["colliding"].tolist() == [True, False, True]
+    assert np.diff(got.offsets).tolist()[1] == 0
+    m = len(got.contacts["depth"])
+    assert got.contacts["manifold_count"].shape == (m,)
+    assert got.contacts["manifold_points"].shape == (m, 8, 3)
+    assert (got.contacts["manifold_count"] >= 1).all()
+
+
 def test_the_caps_stop_the_work_naming_the_row():
     stacked = _pairs([0] * 3, [0] * 3, [STACKED, [50.0, 0, 0], STACKED])
     with pytest.raises(TooManyContacts) as contacts:

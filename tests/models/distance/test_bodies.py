@@ -66,3 +66,19 @@ def test_far_from_the_origin_the_gap_is_the_same():
     near = body_gaps(table, table, np.zeros((1, 3)), q, np.array([[0.1, 0.2, 2.8]]), q)
     far = body_gaps(table, table, np.full((1, 3), 1e6), q, 1e6 + np.array([[0.1, 0.2, 2.8]]), q)
     assert far.distance[0] == pytest.approx(near.distance[0], abs=1e-9)
+
+
+def test_a_level_spreader_over_a_container_answers_the_centroid_of_its_four_heads():
+    """The four twistlock heads are equally close (a tie of rounding): the closest points are
+    their mean, centred over the container; turned a little, one head is closest alone."""
+    box, lifter = body_table(container("40ft", detail=1)), body_table(spreader("40ft", sides=8))
+    lowest = min(hull.vertices[:, 2].min() for hull in lifter.hulls)  # the heads' tips
+    height = 2.591 / 2 + 0.02 - lowest  # the tips 20 mm above the castings
+    centred = body_gaps(box, lifter, np.zeros((1, 3)), [LEVEL], [[0.0, 0.0, height]], [LEVEL])
+    np.testing.assert_allclose(centred.point_a[0, :2], 0.0, atol=1e-9)
+    np.testing.assert_allclose(centred.point_b[0, :2], 0.0, atol=1e-9)
+    turn = 1e-3
+    q = [np.cos(turn / 2), 0.0, np.sin(turn / 2), 0.0]  # about y: one end lower
+    tilted = body_gaps(box, lifter, np.zeros((1, 3)), [LEVEL], [[0.0, 0.0, height]], [q])
+    assert abs(tilted.point_a[0, 0]) > 5.0  # at one end: one head pair, no mean
+    assert tilted.distance[0] < centred.distance[0]

@@ -36,6 +36,25 @@ def test_the_sweep_finds_exactly_the_overlapping_bounds(seed, margin):
                                   _brute_force(*world, margin))
 
 
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("moving", [1, 7, 150])
+def test_with_a_static_world_the_sweep_finds_exactly_the_pairs_with_a_moving_body(seed, moving):
+    world = _world(300, 10 + seed)
+    static = np.ones(300, bool)
+    static[np.random.default_rng(seed).choice(300, moving, replace=False)] = False
+    expected = _brute_force(*world, 0.5)
+    expected = expected[~(static[expected[:, 0]] & static[expected[:, 1]])]
+    np.testing.assert_array_equal(body_pairs(*world, margin=0.5, static=static), expected)
+
+
+def test_a_long_static_body_is_found_from_a_moving_body_far_along_it():
+    eye = np.broadcast_to(np.eye(3), (3, 3, 3))
+    half = np.array([[500.0, 1, 1], [1, 1, 1], [1, 1, 1]])  # a 1 km quay, two boxes on it
+    position = np.array([[0.0, 0, 0], [-480.0, 0, 1.5], [490.0, 0, 1.5]])
+    pairs = body_pairs(np.zeros((3, 3)), half, position, eye, static=[True, False, False])
+    assert pairs.tolist() == [[0, 1], [0, 2]]
+
+
 def test_world_bounds_hold_every_corner_of_the_oriented_box():
     centre, half, position, rotation = _world(200, 7)
     lo, hi = np.empty((200, 3)), np.empty((200, 3))

@@ -13,8 +13,8 @@ import copy
 
 import numpy as np
 
-from impactnet.models.bundle.format import write_bundle
 from impactnet.models.learned import canonical as cn
+from impactnet.models.learned.bundle_loader import write_bundle
 from impactnet.models.learned.mlp import MLP, MLPSpec
 from impactnet.models.learned.region_label import unclipped_points
 from tests.models.helpers import KEYS as INPUT_KEYS

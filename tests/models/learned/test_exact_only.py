@@ -10,7 +10,8 @@ import pytest
 
 from impactnet import models
 from impactnet.models.box.exact import box_box
-from impactnet.models.bundle.format import BundleError, bundle_in_memory, read_bundle
+from impactnet.models.bundle.format import BundleError
+from impactnet.models.learned.bundle_loader import bundle_in_memory, read_bundle
 from tests.models.helpers import KEYS, labelled_rows
 from tests.models.learned.learned_fixtures import PAIRS, bundle_content, write_test_bundle
 

@@ -1,4 +1,4 @@
-"""The committee's kernel (member_stats), region tables and lookup, and pair dispatch."""
+"""The committee's spread (kernel_pair.spread), a pair's region table, and pair dispatch."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,8 +6,10 @@ import pytest
 
 from impactnet.models import contacts as ct
 from impactnet.models.box.exact import box_box
-from impactnet.models.bundle.format import Bundle, PairModels
+from impactnet.models.learned.bundle_loader import Bundle
+from impactnet.models.learned.bundle_pairs import PairModels
 from impactnet.models.learned.canonical import REGION_LABELLER
+from impactnet.models.learned.kernel_pair import spread
 from impactnet.models.learned.pair_dispatch import (
     MIRROR_AXIS,
     MIRROR_TYPE,
@@ -16,45 +18,38 @@ from impactnet.models.learned.pair_dispatch import (
     groups,
     unswap,
 )
-from impactnet.models.learned.pair_runtime import PairRuntime, member_stats
+from impactnet.models.learned.pair_runtime import PairRuntime
 from tests.models.helpers import KEYS, labelled_rows
 from tests.models.learned.test_mlp import random_mlp
 
 
-def test_region_lookup_finds_committee_regions_and_flags_the_rest():
+def test_the_region_table_finds_committee_regions_and_flags_the_rest():
     models = PairModels("a/b", (1.0, 2.0, 3.0), (2.0, 2.0, 2.0), (0.0, 0.01), None,
                         REGION_LABELLER, ("none", "face-vertex:0:18", "edge-edge:6:10"),
                         {"face-vertex:0:18": ("e",), "edge-edge:6:10": ("e", "e")})
     pair = PairRuntime(models, Bundle({}, {"e": random_mlp((12, 8, 7))}, {}))
-    code = np.array([ct.NONE, ct.FACE_VERTEX, ct.EDGE_EDGE, ct.FACE_VERTEX, ct.EDGE_EDGE],
-                    np.int8)
-    feature_a = np.array([-1, 0, 6, 1, 10], np.int8)
-    feature_b = np.array([-1, 18, 10, 18, 6], np.int8)
-    np.testing.assert_array_equal(pair.region_of(code, feature_a, feature_b), [0, 1, 2, -1, -1])
-    assert pair.region_dict[(ct.EDGE_EDGE, 6, 10)] == 2
+    code = np.array([ct.NONE, ct.FACE_VERTEX, ct.EDGE_EDGE, ct.FACE_VERTEX, ct.EDGE_EDGE])
+    feature_a = np.array([-1, 0, 6, 1, 10])
+    feature_b = np.array([-1, 18, 10, 18, 6])
+    np.testing.assert_array_equal(pair.region_table[code, feature_a + 1, feature_b + 1],
+                                  [0, 1, 2, -1, -1])
     assert pair.supports("committee") and not pair.supports("auto")
 
 
 @pytest.mark.parametrize("k", [1, 2, 3, 5])
-def test_member_stats_match_pairwise_geometry(k):
+def test_the_spread_is_the_largest_pairwise_angle_and_distance(k):
     rng = np.random.default_rng(k)
-    members = rng.normal(size=(k, 7, 300)).astype(np.float32)
-    members[:, 3:6] *= rng.uniform(0.5, 2.0, (k, 1, 300)).astype(np.float32)
-    mean, normal_spread, point_spread = member_stats(members, scale=2.0)
-    np.testing.assert_allclose(mean, members.mean(0), atol=1e-6)
-    normals = members[:, 3:6].astype(np.float64)
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    angle = np.zeros(300)
-    dist = np.zeros(300)
-    for i in range(k):
-        for j in range(k):
-            cos = np.clip((normals[i] * normals[j]).sum(0), -1, 1)
-            angle = np.maximum(angle, np.degrees(np.arccos(cos)))
-            dist = np.maximum(dist, 2.0 * np.linalg.norm(members[i, :3] - members[j, :3], axis=0))
-    np.testing.assert_allclose(normal_spread, angle, atol=0.05)  # float32 near 0 and 180
-    np.testing.assert_allclose(point_spread, dist, rtol=1e-5, atol=1e-5)
-    mean_only = member_stats(members, 2.0, spread=False)
-    assert not mean_only[1].any() and not mean_only[2].any()
+    for _ in range(50):
+        members = rng.normal(size=(k, 7))
+        members[:, 3:6] *= rng.uniform(0.5, 2.0, (k, 1))
+        normal_spread, point_spread = spread(members, k, 2.0)
+        units = members[:, 3:6] / np.linalg.norm(members[:, 3:6], axis=1, keepdims=True)
+        chord = np.linalg.norm(units[:, None] - units[None, :], axis=2).max()
+        angle = np.degrees(2.0 * np.arcsin(min(chord / 2.0, 1.0)))  # well conditioned at 0
+        dist = 2.0 * np.linalg.norm(members[:, None, :3] - members[None, :, :3], axis=2).max()
+        np.testing.assert_allclose(normal_spread, angle, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(point_spread, dist, rtol=1e-12)
+    assert spread(np.zeros((3, 7)), 3, 1.0) == (0.0, 0.0)  # short normals: the floor, no 0/0
 
 
 def test_mirror_tables_are_involutions_and_match_the_exact_solver():

@@ -1,21 +1,19 @@
 """The committee's region classifier (the exact labeller) decides as the exact solver does.
 
-Its unclipped point is the exact point only for edge-edge contacts and for parallel, aligned
-face contacts with every incident vertex touching (``exact_point``): elsewhere the exact point
-is the centre of pressure of the whole footprint (:mod:`impactnet.models.box.kernel_pressure`),
-and the unclipped
-point (touching vertices clamped into the reference face) is the experts' baseline.
+Its unclipped point is the exact point only for edge-edge contacts and for parallel, aligned face
+contacts with every incident vertex touching (``exact_point``): elsewhere the exact point is the
+centre of pressure of the whole footprint (:mod:`impactnet.models.box.kernel_pressure`), and the
+unclipped point (touching vertices clamped into the reference face) is the experts' baseline.
 """
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from impactnet.models.box.decision import box_box_one, single_pair
 from impactnet.models.box.exact import box_box
 from impactnet.models.box.tolerances import PRESSURE_FLOOR_REL
+from impactnet.models.compiled import PARALLEL_MIN_ROWS
 from impactnet.models.geometry.poses import SIZE_FAMILIES
-from impactnet.models.learned.pose_columns import checked_inputs
-from impactnet.models.learned.region_label import input_block, label_block, label_one
+from impactnet.models.learned.region_label import label_block
 from tests.models.box.test_exact_one import family_poses
 from tests.models.helpers import KEYS, labelled_rows
 
@@ -54,7 +52,7 @@ def assert_labels_equal_exact(labels, exact, rows=slice(None)):
     for mine, theirs in _LABEL_FIELDS:
         np.testing.assert_array_equal(getattr(labels, mine), getattr(exact, theirs)[rows],
                                       err_msg=mine)
-    np.testing.assert_array_equal(labels.normal.T, exact.normal[rows])
+    np.testing.assert_array_equal(labels.normal, exact.normal[rows])
     assert_depth_is_the_exact_or_the_overlap(labels.depth, exact.depth[rows], labels.code)
 
 
@@ -71,31 +69,26 @@ def test_batch_labels_equal_the_exact_solver_bit_for_bit_on_every_family(seed):
 @pytest.mark.parametrize("size_a, size_b", [([6.058, 2.438, 2.591], [12.0, 2.35, 0.8]),
                                             ([2.0, 2.0, 2.0], [2.0, 2.0, 2.0])])
 def test_labels_from_unnormalised_inputs_equal_the_exact_solver(size_a, size_b):
-    """The committee's path: pose_columns.Inputs (quaternions not normalised, sizes as one
-    broadcast row) through input_block gives the exact solver's labels of the same call."""
+    """The predictors' inputs: quaternions not normalised, sizes as one broadcast row; serial
+    and parallel batches alike give the exact solver's labels of the same call."""
     rows = labelled_rows(size_a, size_b, 3000, 5)  # depths 0-0.01 of the shortest edge
     scaled = {k: rows[k] for k in KEYS}
     scaled["quaternion_a"] = rows["quaternion_a"] * 3.0  # not unit: normalised on the way
     scaled["size_a"], scaled["size_b"] = np.array(size_a), np.array(size_b)
-    inputs = checked_inputs(*(scaled[k] for k in KEYS))
     exact = box_box(*(scaled[k] for k in KEYS))
-    for start, stop in ((0, 1000), (1000, 3000)):
-        labels = label_block(input_block(inputs, start, stop))
+    for start, stop in ((0, PARALLEL_MIN_ROWS - 1), (1000, 3000)):
+        labels = label_block(tuple(scaled[k] if k.startswith("size") else scaled[k][start:stop]
+                                   for k in KEYS))
         assert_labels_equal_exact(labels, exact, slice(start, stop))
 
 
-def test_one_pair_labels_equal_the_scalar_exact_solver():
+def test_one_pair_labels_equal_its_row_of_the_batch_bit_for_bit():
     p = family_poses(per_case=12, seed=3)
-    for i in range(len(p["size_a"])):
-        values = single_pair(*(p[k][i] for k in KEYS))
-        colliding, axis, depth, normal, code, feature_a, feature_b, _, _, _ = label_one(values)
-        exact = box_box_one(values)
-        assert (colliding, axis, code, feature_a, feature_b) == (
-            exact.colliding[0], exact.axis[0], exact.contact_type_code[0],
-            exact.feature_a[0], exact.feature_b[0]), i
-        assert_depth_is_the_exact_or_the_overlap(np.array([depth]), exact.depth,
-                                                 np.array([code]))
-        assert normal == exact.normal[0].tolist(), i
+    batch = label_block(tuple(p[k] for k in KEYS))
+    for i in range(0, len(p["size_a"]), 7):
+        one = label_block(tuple(p[k][i] for k in KEYS))
+        for name, value in one._asdict().items():
+            np.testing.assert_array_equal(value[0], getattr(batch, name)[i], err_msg=name)
 
 
 def unclipped_errors(per_case: int, seed: int):
@@ -106,7 +99,7 @@ def unclipped_errors(per_case: int, seed: int):
     exact = box_box(*inputs)
     labels = label_block(inputs)
     size = np.maximum(inputs[0].max(1), inputs[3].max(1))
-    error = np.linalg.norm(labels.unclipped.T - exact.point, axis=1) / size
+    error = np.linalg.norm(labels.unclipped - exact.point, axis=1) / size
     return exact, labels, error, size
 
 
@@ -121,10 +114,10 @@ def test_edge_edge_unclipped_point_is_exact_and_a_vertex_contact_gives_its_verte
     vertex = np.isin(exact.contact_type_code, [1, 2])  # vertex-face, face-vertex
     assert edges.sum() > 100 and vertex.sum() > 100
     assert error[edges].max() < POINT_AGREEMENT_REL
-    to_vertex = np.linalg.norm(labels.unclipped.T - exact.manifold_points[:, 0], axis=1)
+    to_vertex = np.linalg.norm(labels.unclipped - exact.manifold_points[:, 0], axis=1)
     on_vertex = vertex & (to_vertex < POINT_AGREEMENT_REL * size)
     assert on_vertex.sum() > VERTEX_INSIDE_SHARE_MIN * vertex.sum()
-    gap = np.abs(((labels.unclipped.T - exact.point) * exact.normal).sum(axis=1))
+    gap = np.abs(((labels.unclipped - exact.point) * exact.normal).sum(axis=1))
     quarter = np.abs(gap - exact.depth / 4) <= (POINT_AGREEMENT_REL + PRESSURE_FLOOR_REL) * size
     assert quarter[on_vertex].mean() > UNCLIPPED_CORNER_SHARE_MIN, quarter[on_vertex].mean()
     assert not labels.exact_point[vertex].any()
@@ -144,20 +137,8 @@ def test_aligned_boxes_overlapping_anywhere_give_the_exact_point():
     exact = box_box(*args)
     labels = label_block(args)
     assert (exact.contact_type_code == 6).all()
-    np.testing.assert_allclose(labels.unclipped.T, exact.point, atol=ROUNDING_REL * 12.192)
+    np.testing.assert_allclose(labels.unclipped, exact.point, atol=ROUNDING_REL * 12.192)
     assert labels.exact_point.all()  # aligned and fully touching: flagged exact
-
-
-def test_one_pair_unclipped_point_equals_the_batch():
-    p = family_poses(per_case=8, seed=13)
-    labels = label_block(tuple(p[k] for k in KEYS))
-    for i in range(len(p["size_a"])):
-        values = single_pair(*(p[k][i] for k in KEYS))
-        exact, one = label_one(values)[7:9]
-        assert exact == labels.exact_point[i], i
-        scale = max(values[0]) + max(values[3])
-        np.testing.assert_allclose(one, labels.unclipped[:, i], rtol=0,
-                                   atol=ROUNDING_REL * 40 * scale)
 
 
 def aligned_stacks(n: int, seed: int) -> dict:
@@ -193,7 +174,7 @@ def test_rows_flagged_exact_have_the_exact_point():
     exact = box_box(*inputs)
     labels = label_block(inputs)
     size = np.maximum(inputs[0].max(1), inputs[3].max(1))
-    error = np.linalg.norm(labels.unclipped.T - exact.point, axis=1) / size
+    error = np.linalg.norm(labels.unclipped - exact.point, axis=1) / size
     flagged, stacked = labels.exact_point, np.arange(len(exact)) >= len(exact) - 600
     assert not flagged[~exact.colliding].any()
     assert flagged[exact.contact_type_code == 3].all()

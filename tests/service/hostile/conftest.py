@@ -46,7 +46,7 @@ def server_factory():
         proc.cleanup()
 
 
-def stalled_sockets(port: int, count: int, path: str = "/v1/contact",
+def stalled_sockets(port: int, count: int, path: str = "/v2/contact",
                     declared: int = 1000) -> list[socket.socket]:
     """``count`` connections that each send the headers and one byte of a ``declared``-byte
     body, then nothing more."""

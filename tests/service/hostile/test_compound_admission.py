@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from impactnet.models.compound import candidates as candidates_module
-from impactnet.service import compound_solve
+from impactnet.models.dispatch import plan as dispatch_plan
+from impactnet.models.dispatch import solve as dispatch_solve
 from tests.service.conftest import assert_error
 
 LEVEL = [1.0, 0.0, 0.0, 0.0]
@@ -38,7 +39,8 @@ def _containers(rows: int, position) -> bytes:
 
 @pytest.fixture
 def solved(monkeypatch):
-    """The narrowphase's calls: each slice of poses solved, as (start, stop)."""
+    """The narrowphase's calls (where the dispatcher looks it up): each slice of poses
+    solved, as (start, stop)."""
     calls = []
     answer = candidates_module.answer_of_poses
 
@@ -46,14 +48,14 @@ def solved(monkeypatch):
         calls.append(args[-2:])
         return answer(*args)
 
-    monkeypatch.setattr(compound_solve, "answer_of_poses", watched)
+    monkeypatch.setattr(dispatch_solve, "answer_of_poses", watched)
     return calls
 
 
 def test_a_batch_past_the_request_cap_is_413_before_any_contact_is_solved(make_client,
                                                                          solved):
     client = make_client(scene="quay_crane_detail", max_candidates_per_request=10_000)
-    response = client.post("/v1/contact/batch", content=_containers(100, OVERLAP), headers=NPZ)
+    response = client.post("/v2/contact/batch", content=_containers(100, OVERLAP), headers=NPZ)
     answer = assert_error(response, 413, error="too_many_candidates")
     assert answer["limit"] == "max_candidates_per_request" and solved == []
     assert 'reason="max_candidates_per_request"} 1.0' in client.get("/metrics").text
@@ -64,7 +66,7 @@ def test_a_pose_past_the_pose_cap_is_413_naming_its_row(make_client, solved):
     body = {"a_object": "container40", "b_object": "container40", "a_position": [0, 0, 0],
             "b_position": [STACKED, STACKED, OVERLAP], "a_quaternion": LEVEL,
             "b_quaternion": LEVEL}
-    answer = assert_error(client.post("/v1/contact/batch", json=body), 413)
+    answer = assert_error(client.post("/v2/contact/batch", json=body), 413)
     assert answer["limit"] == "max_candidates_per_pose" and "row 2" in answer["message"]
     assert solved == []
 
@@ -76,13 +78,13 @@ def test_the_shipped_scenes_worst_poses_pass_the_default_caps(make_client):
             "a_position": [0, 0, 0], "b_position": [OVERLAP, STACKED, [0, 0.0045, 1.7005],
                                                     [3.0, 0.0, 2.589]],
             "a_quaternion": LEVEL, "b_quaternion": LEVEL}
-    response = client.post("/v1/contact/batch", json=body)
+    response = client.post("/v2/contact/batch", json=body)
     assert response.status_code == 200, response.text
 
 
 def test_the_part_contact_cap_stops_the_work_at_the_first_slice_past_it(make_client, solved):
     client = make_client(scene="quay_crane_detail", max_part_contacts_per_batch=100)
-    response = client.post("/v1/contact/batch", content=_containers(500, STACKED), headers=NPZ)
+    response = client.post("/v2/contact/batch", content=_containers(500, STACKED), headers=NPZ)
     answer = assert_error(response, 413, error="too_many_part_contacts")
     assert answer["limit"] == "max_part_contacts_per_batch"
     assert len(solved) == 1  # 51 poses x 40 contacts in the first slice: stopped there
@@ -90,10 +92,11 @@ def test_the_part_contact_cap_stops_the_work_at_the_first_slice_past_it(make_cli
 
 def test_a_compound_batch_reserves_its_memory_first(make_client, solved):
     client = make_client(scene="quay_crane_detail")
-    response = client.post("/v1/contact/batch", content=_containers(200, STACKED), headers=NPZ)
+    response = client.post("/v2/contact/batch", content=_containers(200, STACKED), headers=NPZ)
     assert response.status_code == 200
     peak = client.app.state.runtime.budget.peak
-    assert peak >= 200 * 40 * compound_solve.CONTACT_BYTES + compound_solve.SLICE_WORKING_BYTES
+    assert peak >= (200 * 40 * dispatch_plan.CONTACT_BYTES
+                    + dispatch_plan.SLICE_WORKING_BYTES)
     assert client.app.state.runtime.budget.used == 0  # released with the answer
 
 
@@ -102,7 +105,7 @@ def test_no_room_in_the_budget_is_503_before_any_contact_is_solved(make_client, 
     budget = client.app.state.runtime.budget
     budget.reserve(budget.limit - (1 << 20), "another request")
     try:
-        response = client.post("/v1/contact/batch", content=_containers(200, STACKED),
+        response = client.post("/v2/contact/batch", content=_containers(200, STACKED),
                                headers=NPZ)
     finally:
         budget.release(budget.limit - (1 << 20))
@@ -112,7 +115,7 @@ def test_no_room_in_the_budget_is_503_before_any_contact_is_solved(make_client, 
 
 def test_a_batch_that_could_never_fit_the_budget_is_413(make_client, solved):
     client = make_client(scene="quay_crane_detail", memory_budget_bytes=64 << 20)
-    response = client.post("/v1/contact/batch", content=_containers(20_000, STACKED),
+    response = client.post("/v2/contact/batch", content=_containers(20_000, STACKED),
                            headers=NPZ)
     assert_error(response, 413, error="batch_too_large")
     assert solved == []
@@ -120,14 +123,14 @@ def test_a_batch_that_could_never_fit_the_budget_is_413(make_client, solved):
 
 def test_distinct_pairs_that_cannot_touch_cost_no_per_pair_setup(make_client, monkeypatch):
     counted = []
-    monkeypatch.setattr(compound_solve, "candidate_pairs",
+    monkeypatch.setattr(dispatch_plan, "candidate_pairs",
                         lambda *a, **k: counted.append(1) or candidates_module.candidate_pairs(
                             *a, **k))
     client = make_client(scene="quay_crane_detail")
     sizes = np.random.default_rng(0).uniform(0.5, 2.0, (2_000, 3))
     body = _npz(a_size=sizes, b_object=np.array("container40"), a_position=np.zeros(3),
                 b_position=np.array([50.0, 0, 0]), a_euler=np.zeros(3), b_euler=np.zeros(3))
-    response = client.post("/v1/contact/batch", content=body, headers=NPZ)
+    response = client.post("/v2/contact/batch", content=body, headers=NPZ)
     assert response.status_code == 200
     answer = np.load(io.BytesIO(response.content))
     assert not answer["colliding"].any() and len(answer["colliding"]) == 2_000
@@ -137,12 +140,12 @@ def test_distinct_pairs_that_cannot_touch_cost_no_per_pair_setup(make_client, mo
 @pytest.mark.parametrize("accept", ["application/json", "application/x-npz"])
 def test_a_large_compound_answer_is_streamed_and_equals_the_whole(make_client, accept):
     client = make_client(scene="quay_crane_detail")
-    rows = 600  # 24,000 part contacts: past COMPOUND_STREAM_CONTACTS
-    response = client.post("/v1/contact/batch", content=_containers(rows, STACKED),
+    rows = 600  # 24,000 part contacts: past WHOLE_ROWS
+    response = client.post("/v2/contact/batch", content=_containers(rows, STACKED),
                            headers={"Content-Type": "application/x-npz", "Accept": accept})
     assert response.status_code == 200
     assert "content-length" not in response.headers  # chunked
-    small = client.post("/v1/contact/batch", content=_containers(1, STACKED),
+    small = client.post("/v2/contact/batch", content=_containers(1, STACKED),
                         headers={"Content-Type": "application/x-npz", "Accept": accept})
     assert "content-length" in small.headers  # encoded whole
     if accept == "application/json":
@@ -150,10 +153,16 @@ def test_a_large_compound_answer_is_streamed_and_equals_the_whole(make_client, a
         assert whole["n"] == rows and len(whole["contacts"]["offsets"]) == rows + 1
         assert whole["contacts"]["part_a"][:40] == one["contacts"]["part_a"]
         np.testing.assert_array_equal(whole["contacts"]["point"][:40], one["contacts"]["point"])
+        assert whole["feature_a"]["part"][:1] == one["feature_a"]["part"]
+        np.testing.assert_array_equal(whole["point"][:1], one["point"])
         return
     whole, one = np.load(io.BytesIO(response.content)), np.load(io.BytesIO(small.content))
     assert set(whole.files) == set(one.files)
-    for name in one.files:
-        if name.startswith("contact_") and name != "contact_offsets":
-            np.testing.assert_array_equal(whole[name][:40], one[name])
-    assert whole["contact_offsets"][-1] == rows * 40
+    for name in set(one.files) - {"n", "contact_offsets"}:
+        if one[name].ndim == 0:  # mode, model_version
+            assert whole[name] == one[name], name
+            continue
+        part_contact = name.startswith("contact_") and name != "contact_type"  # not the pair's
+        np.testing.assert_array_equal(whole[name][:40 if part_contact else 1], one[name],
+                                      err_msg=name)
+    assert whole["contact_offsets"][-1] == rows * 40 and whole["n"] == rows

@@ -18,7 +18,9 @@ import numpy as np
 import pytest
 
 from impactnet.models.compound import candidates as candidates_module
-from impactnet.service import batch_steps, compound_solve
+from impactnet.models.dispatch import plan as dispatch_plan
+from impactnet.models.dispatch import solve as dispatch_solve
+from impactnet.service import solve as service_solve
 from impactnet.service.app import create_app
 from tests.service.conftest import assert_error, test_settings
 from tests.service.hostile.conftest import cpu_seconds, memory_kib
@@ -46,15 +48,15 @@ def slow_slices(monkeypatch):
         calls.append(time.monotonic())
         return answer(*args)
 
-    monkeypatch.setattr(compound_solve, "answer_of_poses", slow)
-    monkeypatch.setattr(compound_solve, "SLICE_CANDIDATES", 400)  # 10 stacked poses a slice
+    monkeypatch.setattr(dispatch_solve, "answer_of_poses", slow)  # where the dispatcher finds it
+    monkeypatch.setattr(dispatch_plan, "SLICE_CANDIDATES", 400)  # 10 stacked poses a slice
     return calls
 
 
 def test_work_past_its_deadline_stops_and_answers_504(make_client, slow_slices):
     client = make_client(scene="quay_crane_detail", compute_deadline_s=0.3)
     started = time.monotonic()
-    response = client.post("/v1/contact/batch", content=_containers(400), headers=NPZ)
+    response = client.post("/v2/contact/batch", content=_containers(400), headers=NPZ)
     answer = assert_error(response, 504, error="deadline_exceeded")
     assert answer["limit"] == "compute_deadline_s"
     assert 3 <= len(slow_slices) < 40  # stopped after ~6 of its 40 slices
@@ -78,7 +80,7 @@ async def _run_and_disconnect(app, body: bytes, leave_after_s: float) -> list[di
         sent.append(message)
 
     scope = {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1",
-             "method": "POST", "path": "/v1/contact/batch", "raw_path": b"/v1/contact/batch",
+             "method": "POST", "path": "/v2/contact/batch", "raw_path": b"/v2/contact/batch",
              "query_string": b"", "root_path": "", "scheme": "http",
              "server": ("127.0.0.1", 8000), "client": ("127.0.0.1", 5000),
              "headers": [(b"content-type", b"application/x-npz"),
@@ -102,23 +104,23 @@ def test_work_stops_when_its_client_disconnects(slow_slices):
 def test_a_small_batch_is_answered_while_the_large_lane_is_held(make_client, monkeypatch):
     client = make_client(scene="quay_crane_detail")
     held, release = threading.Semaphore(0), threading.Event()
-    solve = batch_steps.solve
+    solve = service_solve._solve
 
-    def holding(admitted, *args):
-        if admitted.work > client.app.state.runtime.settings.small_work_max:
+    def holding(dispatcher, plan, caps):  # the solve step, in its lane's thread
+        if plan.work > client.app.state.runtime.settings.small_work_max:
             held.release()
             release.wait(30)
-        return solve(admitted, *args)
+        return solve(dispatcher, plan, caps)
 
-    monkeypatch.setattr(batch_steps, "solve", holding)
-    large = [threading.Thread(target=client.post, args=("/v1/contact/batch",),
+    monkeypatch.setattr(service_solve, "_solve", holding)
+    large = [threading.Thread(target=client.post, args=("/v2/contact/batch",),
                               kwargs={"content": _containers(2_000), "headers": NPZ})
              for _ in range(2)]
     for thread in large:
         thread.start()
     try:
         assert held.acquire(timeout=30) and held.acquire(timeout=30)  # both lane threads held
-        small = client.post("/v1/contact/batch", json={
+        small = client.post("/v2/contact/batch", json={
             "a_size": [1, 1, 1], "b_size": [1, 1, 1], "a_position": [0, 0, 0],
             "b_position": [[0, 0, 0.99]] * 10, "a_quaternion": [1, 0, 0, 0],
             "b_quaternion": [1, 0, 0, 0]})
@@ -133,19 +135,19 @@ def test_large_work_past_the_queue_is_503_before_it_starts(make_client, monkeypa
     client = make_client(scene="quay_crane_detail", max_batch_workers=1,
                          max_queued_large_work=1)
     held, release = threading.Semaphore(0), threading.Event()
-    solve = batch_steps.solve
+    solve = service_solve._solve
 
-    def holding(admitted, *args):
-        if admitted.work > client.app.state.runtime.settings.small_work_max:
+    def holding(dispatcher, plan, caps):  # the solve step, in its lane's thread
+        if plan.work > client.app.state.runtime.settings.small_work_max:
             held.release()
             release.wait(30)
-        return solve(admitted, *args)
+        return solve(dispatcher, plan, caps)
 
-    monkeypatch.setattr(batch_steps, "solve", holding)
+    monkeypatch.setattr(service_solve, "_solve", holding)
     answers = []
 
     def large():
-        answers.append(client.post("/v1/contact/batch", content=_containers(2_000),
+        answers.append(client.post("/v2/contact/batch", content=_containers(2_000),
                                    headers=NPZ).status_code)
 
     running = threading.Thread(target=large)
@@ -160,7 +162,7 @@ def test_large_work_past_the_queue_is_503_before_it_starts(make_client, monkeypa
                 break
             time.sleep(0.01)
         assert lanes.waiting == 1
-        refused = client.post("/v1/contact/batch", content=_containers(2_000), headers=NPZ)
+        refused = client.post("/v2/contact/batch", content=_containers(2_000), headers=NPZ)
         assert_error(refused, 503, error="overloaded")
         assert refused.headers["retry-after"]
         assert 'reason="large_work_queue"} 1.0' in client.get("/metrics").text
@@ -176,7 +178,7 @@ def test_an_oversized_body_sent_whole_gets_its_413(server):
     (not a reset connection)."""
     conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=30)
     body = b'{"a": ' + b" " * (12 << 20) + b"}"
-    conn.request("POST", "/v1/contact", body, {"Content-Type": "application/json"})
+    conn.request("POST", "/v2/contact", body, {"Content-Type": "application/json"})
     response = conn.getresponse()
     assert response.status == 413
     assert json.loads(response.read())["error"] == "body_too_large"
@@ -192,7 +194,7 @@ def test_a_real_server_stops_computing_when_its_client_leaves_and_gives_memory_b
     import socket
 
     sock = socket.create_connection(("127.0.0.1", proc.port))
-    sock.sendall(b"POST /v1/contact/batch HTTP/1.1\r\nHost: x\r\nContent-Type: "
+    sock.sendall(b"POST /v2/contact/batch HTTP/1.1\r\nHost: x\r\nContent-Type: "
                  b"application/x-npz\r\nContent-Length: %d\r\n\r\n" % len(body) + body)
     time.sleep(0.5)
     sock.close()
@@ -209,4 +211,4 @@ def test_a_real_server_stops_computing_when_its_client_leaves_and_gives_memory_b
 def _post(port: int, body: bytes):
     from tests.service.hostile.conftest import post
 
-    return post(port, "/v1/contact/batch", body, NPZ, timeout=120)
+    return post(port, "/v2/contact/batch", body, NPZ, timeout=120)

@@ -28,7 +28,7 @@ def test_keep_alive_clients_are_answered_during_the_drain():
         connections = [http.client.HTTPConnection("127.0.0.1", proc.port, timeout=10)
                        for _ in range(CLIENTS)]
         for conn in connections:  # one answered request each; the connection stays open
-            conn.request("POST", "/v1/contact", body, headers)
+            conn.request("POST", "/v2/contact", body, headers)
             response = conn.getresponse()
             assert response.status == 200 and response.getheader("connection") != "close"
             response.read()
@@ -38,7 +38,7 @@ def test_keep_alive_clients_are_answered_during_the_drain():
 
         def again(i: int) -> None:
             try:
-                connections[i].request("POST", "/v1/contact", body, headers)
+                connections[i].request("POST", "/v2/contact", body, headers)
                 response = connections[i].getresponse()
                 answers[i] = (response.status, response.getheader("connection"),
                               response.read())

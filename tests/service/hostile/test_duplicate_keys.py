@@ -30,7 +30,7 @@ DUPLICATES = [
 
 @pytest.mark.parametrize("name,raw,field", DUPLICATES, ids=[d[0] for d in DUPLICATES])
 def test_duplicate_keys_in_a_pair_are_422(client, name, raw, field):
-    answer = assert_error(client.post("/v1/contact", content=raw, headers=JSON), 422, field,
+    answer = assert_error(client.post("/v2/contact", content=raw, headers=JSON), 422, field,
                           "invalid_input")
     assert answer["detail"][0]["type"] == "duplicate_key"
 
@@ -39,10 +39,10 @@ def test_colons_inside_strings_are_not_keys(client):
     """The count of colons is only the fast path: a name with a colon is no duplicate."""
     raw = orjson.dumps(PAIR | {"mode": "exact"}).replace(b'"mode":"exact"',
                                                          b'"euler_convention":"zyx"')
-    assert client.post("/v1/contact", content=raw, headers=JSON).status_code == 200
+    assert client.post("/v2/contact", content=raw, headers=JSON).status_code == 200
     named = orjson.dumps({"a": {"object": "no:such:object", **{k: v for k, v in PAIR["a"].items()
                                                              if k != "size"}}, "b": PAIR["b"]})
-    assert_error(client.post("/v1/contact", content=named, headers=JSON), 422, "a.object")
+    assert_error(client.post("/v2/contact", content=named, headers=JSON), 422, "a.object")
 
 
 @pytest.mark.parametrize("layout", ["simple", "parsed whole"])
@@ -52,10 +52,10 @@ def test_duplicate_columns_in_a_batch_are_422(client, layout):
     if layout == "parsed whole":  # an escaped character: the body is parsed at once
         extra += b',"euler_convention":"zy\\u0078"'
     raw = body[:-1] + extra + b"}"
-    answer = assert_error(client.post("/v1/contact/batch", content=raw, headers=JSON), 422,
+    answer = assert_error(client.post("/v2/contact/batch", content=raw, headers=JSON), 422,
                           "a_position", "invalid_input")
     assert answer["detail"][0]["type"] == "duplicate_key"
-    assert client.post("/v1/contact/batch", content=body[:-1] + extra[21:] + b"}",
+    assert client.post("/v2/contact/batch", content=body[:-1] + extra[21:] + b"}",
                        headers=JSON).status_code == 200  # the same without the duplicate
 
 
@@ -72,5 +72,5 @@ def test_duplicate_keys_in_a_reload_body_are_422(make_client):
     b'{"a":' + b'{"k":0,' * 30 + b"}",  # unbalanced
 ])
 def test_too_many_keys_in_malformed_json_is_422(client, raw):
-    assert_error(client.post("/v1/contact", content=raw, headers=JSON), 422, None,
+    assert_error(client.post("/v2/contact", content=raw, headers=JSON), 422, None,
                  "invalid_input")

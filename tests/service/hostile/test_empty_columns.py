@@ -12,7 +12,7 @@ import pytest
 from tests.service.conftest import assert_error
 from tests.service.test_batch import as_json, npz_bytes, poses
 
-URL = "/v1/contact/batch"
+URL = "/v2/contact/batch"
 NPZ = {"Content-Type": "application/x-npz"}
 
 EMPTY_NPZ = [

@@ -1,6 +1,6 @@
 """Issue 23, item 3: bodies that stalled the event loop are refused, cheaply and with small errors.
 
-Reproducers: a 38 MB ``/v1/contact`` body of 3 million unknown keys took 35 s and froze
+Reproducers: a 38 MB ``/v2/contact`` body of 3 million unknown keys took 35 s and froze
 /healthz for 35 s; its error listed every key (300,000 keys made a 3.5 MB request into a 31 MB
 answer). Now a single pair's body is capped at 64 KiB (413 from Content-Length, or as soon as a
 chunked body passes the cap), a body within the cap is parsed off the event loop when it is
@@ -50,7 +50,7 @@ def _declared(port: int, path: str, declared: int, first: bytes) -> bytes:
 def _chunked(port: int, body: bytes, chunk: int = 16384) -> bytes:
     """``body`` sent chunked (no Content-Length) until the server answers; the reply."""
     with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
-        sock.sendall(b"POST /v1/contact HTTP/1.1\r\nHost: x\r\nContent-Type: application/json"
+        sock.sendall(b"POST /v2/contact HTTP/1.1\r\nHost: x\r\nContent-Type: application/json"
                      b"\r\nTransfer-Encoding: chunked\r\n\r\n")
         try:
             for i in range(0, len(body), chunk):
@@ -66,7 +66,7 @@ def test_error_details_are_capped(client):
     """44 bad numbers (every coordinate of both bodies a string): 20 listed, one counts."""
     bad = {"object": "cube", "size": ["x"] * 3, "position": ["x"] * 3,
            "quaternion": ["x"] * 4, "matrix": [["x"] * 3] * 3, "euler": ["x"] * 3}
-    response = client.post("/v1/contact", json={"a": bad, "b": bad})
+    response = client.post("/v2/contact", json={"a": bad, "b": bad})
     answer = assert_error(response, 422, "a.size", "invalid_input")
     assert len(answer["detail"]) == MAX_DETAIL_ITEMS + 1
     assert answer["detail"][-1]["type"] == "too_many_errors"
@@ -77,20 +77,20 @@ def test_unknown_keys_are_refused_unparsed(client):
     """5,000 unknown keys (a 60 KB body): 422 from the count of keys, a small answer."""
     body = _unknown_keys(5000)
     assert len(body) < PAIR_BODY_CAP
-    response = client.post("/v1/contact", content=body,
+    response = client.post("/v2/contact", content=body,
                            headers={"Content-Type": "application/json"})
     answer = assert_error(response, 422, "body", "invalid_input")
     assert answer["detail"][0]["type"] == "too_many_keys" and len(response.content) < 1024
     with_colons = pair_with_names("a:b", "c:d")  # colons inside strings are not keys
-    assert client.post("/v1/contact", json=with_colons).status_code == 422  # unknown names
-    assert_error(client.post("/v1/contact", json=with_colons), 422, "a.object")
+    assert client.post("/v2/contact", json=with_colons).status_code == 422  # unknown names
+    assert_error(client.post("/v2/contact", json=with_colons), 422, "a.object")
 
 
 def test_a_pair_body_above_64_kib_is_413(client):
-    response = client.post("/v1/contact", content=_unknown_keys(8000),
+    response = client.post("/v2/contact", content=_unknown_keys(8000),
                            headers={"Content-Type": "application/json"})
     assert_error(response, 413, None, "body_too_large")
-    assert client.post("/v1/contact", json=PAIR).status_code == 200
+    assert client.post("/v2/contact", json=PAIR).status_code == 200
 
 
 @pytest.mark.slow
@@ -102,11 +102,11 @@ def test_healthz_keeps_answering_while_hostile_bodies_are_refused(server_factory
     deep = b'{"a":' + b"[" * 30_000 + b"]" * 30_000 + b"}"
     within_cap = _unknown_keys(5000)
     hostile = itertools.cycle([
-        lambda: _declared(proc.port, "/v1/contact", len(keys_38mb), keys_38mb[:65536]),
+        lambda: _declared(proc.port, "/v2/contact", len(keys_38mb), keys_38mb[:65536]),
         lambda: _chunked(proc.port, keys_38mb[:1 << 20]),
-        lambda: post(proc.port, "/v1/contact", within_cap),
-        lambda: post(proc.port, "/v1/contact", deep),
-        lambda: post(proc.port, "/v1/contact/batch", batch_keys),
+        lambda: post(proc.port, "/v2/contact", within_cap),
+        lambda: post(proc.port, "/v2/contact", deep),
+        lambda: post(proc.port, "/v2/contact/batch", batch_keys),
     ])
     outcomes = []
     with HealthSampler(proc.port) as health:

@@ -52,7 +52,7 @@ def detail(make_client):
                                   "../../../etc/passwd", "lid.stl"])
 def test_a_mesh_naming_a_server_path_is_refused_the_same_way_whether_it_exists(client, path):
     body = {"a": _inline({"name": "m", "mesh": path}), "b": _box_body()}
-    answer = assert_error(client.post("/v1/contact", json=body), 422, field="a.parts[0].mesh")
+    answer = assert_error(client.post("/v2/contact", json=body), 422, field="a.parts[0].mesh")
     assert answer["message"] == ("a.parts[0].mesh: a mesh here is data: {format, data} with "
                                  "the file's bytes in base64; file names are not accepted")
 
@@ -75,7 +75,7 @@ def test_a_count_past_its_limit_is_413_naming_the_field_before_any_hull(
         make_client, monkeypatch, part, field, limit):
     client = make_client(max_pair_body_bytes=1 << 20)
     monkeypatch.setattr(hull_module, "_merged_faces", _no_hull)
-    response = client.post("/v1/contact", json={"a": _inline(part), "b": _box_body()})
+    response = client.post("/v2/contact", json={"a": _inline(part), "b": _box_body()})
     answer = assert_error(response, 413, field=field, error="geometry_too_large")
     assert answer["limit"] == limit and limit in answer["message"]
     metrics = client.get("/metrics").text
@@ -90,12 +90,12 @@ def test_too_many_parts_and_too_many_corners_are_413(make_client):
     client = make_client(max_inline_parts=4, max_inline_vertices=40)
     boxes = [{"name": f"b{k}", "box": {"size": [0.1, 0.1, 0.1], "centre": [k * 0.2, 0, 0]}}
              for k in range(5)]
-    answer = assert_error(client.post("/v1/contact", json={"a": _inline(*boxes),
+    answer = assert_error(client.post("/v2/contact", json={"a": _inline(*boxes),
                                                            "b": _box_body(3.0)}), 413)
     assert answer["limit"] == "max_inline_parts"
     frustum = {"name": "f", "frustum": {"sides": 16, "base": 0.2, "height": 0.1}}
     both = {"a": _inline(frustum), "b": _inline({**frustum, "name": "g"}, position=(0, 0, 2))}
-    answer = assert_error(client.post("/v1/contact", json=both), 413, field="b.parts")
+    answer = assert_error(client.post("/v2/contact", json=both), 413, field="b.parts")
     assert answer["limit"] == "max_inline_vertices"  # 32 + 32 corners: the request's total
 
 
@@ -113,7 +113,7 @@ def test_an_inline_body_of_many_parts_is_served(client):
     boxes = [{"name": f"b{k}", "box": {"size": [0.05, 0.05, 0.05],
                                        "centre": [0.1 * (k % 10), 0.1 * (k // 10), 0.0]}}
              for k in range(128)]
-    response = client.post("/v1/contact", json={"a": _inline(*boxes), "b": _box_body(0.52)})
+    response = client.post("/v2/contact", json={"a": _inline(*boxes), "b": _box_body(0.52)})
     assert response.status_code == 200, response.text
     assert response.json()["colliding"] is True
 
@@ -121,11 +121,11 @@ def test_an_inline_body_of_many_parts_is_served(client):
 def test_an_stl_with_a_non_finite_vertex_is_422_naming_the_field(client):
     body = {"a": _inline({"name": "m", "mesh": {"format": "stl", "data": _stl(float("nan"))}}),
             "b": _box_body(2.0)}
-    answer = assert_error(client.post("/v1/contact", json=body), 422, field="a.parts[0].mesh")
+    answer = assert_error(client.post("/v2/contact", json=body), 422, field="a.parts[0].mesh")
     assert "not finite" in answer["message"]
     fine = {"a": _inline({"name": "m", "mesh": {"format": "stl", "data": _stl()}}),
             "b": _box_body(2.0)}
-    assert client.post("/v1/contact", json=fine).status_code == 200
+    assert client.post("/v2/contact", json=fine).status_code == 200
 
 
 @pytest.mark.parametrize("data", [base64.b64encode(b"solid x\nfacet garbage").decode(),
@@ -133,7 +133,7 @@ def test_an_stl_with_a_non_finite_vertex_is_422_naming_the_field(client):
 def test_a_mesh_that_does_not_load_says_so_plainly(client, data):
     body = {"a": _inline({"name": "m", "mesh": {"format": "stl", "data": data}}),
             "b": _box_body(2.0)}
-    answer = assert_error(client.post("/v1/contact", json=body), 422, field="a.parts[0].mesh")
+    answer = assert_error(client.post("/v2/contact", json=body), 422, field="a.parts[0].mesh")
     assert "base64" not in answer["message"] and "object" not in answer["message"]
 
 
@@ -149,7 +149,7 @@ def test_a_mesh_that_does_not_load_says_so_plainly(client, data):
     b'"b": {"size": [1, 1, 1], "position": [0, 0, 3], "quaternion": [1, 0, 0, 0]}}',
 ])
 def test_a_huge_integer_in_a_part_is_422_not_500(client, raw):
-    response = client.post("/v1/contact", content=raw,
+    response = client.post("/v2/contact", content=raw,
                            headers={"Content-Type": "application/json"})
     assert_error(response, 422)
     assert len(response.content) < 2000  # the number is described, not echoed
@@ -158,21 +158,21 @@ def test_a_huge_integer_in_a_part_is_422_not_500(client, raw):
 def test_bodies_with_parts_at_the_position_limit_are_answered(detail):
     at = lambda x, z: {"object": "container40", "position": [x, 0.0, z], "quaternion": LEVEL}  # noqa: E731
     for x in (1e9, -1e9):
-        pair = detail.post("/v1/contact", json={"a": at(x, 0.0), "b": at(x, 2.589)})
+        pair = detail.post("/v2/contact", json={"a": at(x, 0.0), "b": at(x, 2.589)})
         assert pair.status_code == 200 and pair.json()["colliding"], pair.text
-    batch = detail.post("/v1/contact/batch", json={
+    batch = detail.post("/v2/contact/batch", json={
         "a_object": "container40", "b_object": "container40", "a_position": [1e9, 0, 0],
         "b_position": [1e9, 0, 2.589], "a_quaternion": LEVEL, "b_quaternion": LEVEL})
     assert batch.status_code == 200 and batch.json()["colliding"] == [True]
     part_beyond = _inline({"name": "b", "box": {"size": [1, 1, 1], "centre": [5, 0, 0]}},
                           position=(1e9, 0, 0))  # its part's centre lies 5 m past the limit
     long_box = {"size": [12.0, 1.0, 1.0], "position": [1e9, 0, 0.99], "quaternion": LEVEL}
-    answer = detail.post("/v1/contact", json={"a": part_beyond, "b": long_box})
+    answer = detail.post("/v2/contact", json={"a": part_beyond, "b": long_box})
     assert answer.status_code == 200 and answer.json()["colliding"], answer.text
 
 
 def test_an_unknown_object_names_the_scene_bodies(detail):
-    response = detail.post("/v1/contact", json={
+    response = detail.post("/v2/contact", json={
         "a": {"object": "nope", "position": [0, 0, 0], "quaternion": LEVEL}, "b": _box_body()})
     answer = assert_error(response, 422, field="a.object")
     assert "container40" in answer["message"] and "spreader" in answer["message"]

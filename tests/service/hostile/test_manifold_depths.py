@@ -11,8 +11,8 @@ import io
 
 import numpy as np
 
-from impactnet.models import load_predictor
-from tests.service.conftest import PAIR
+from impactnet.models.box.exact import box_box
+from tests.service.conftest import PAIR, serve_exact_with
 from tests.service.test_batch import as_json, poses
 
 ROUND_OFF_DEPTH = -1e-17
@@ -24,33 +24,28 @@ class _NegativeDepths:
     mode = "exact"
 
     def __call__(self, *args):
-        contacts = load_predictor("exact")(*args)
+        contacts = box_box(*args)
         depths = np.where(np.arange(8) < contacts.manifold_count[:, None], ROUND_OFF_DEPTH, 0.0)
         return dataclasses.replace(contacts, manifold_depths=depths)
 
 
-def _install(app) -> None:
-    runtime = app.state.runtime
-    runtime.install(dataclasses.replace(runtime.serving, predictors={"exact": _NegativeDepths()}))
-
-
 def test_manifold_depths_are_never_negative(make_client):
     client = make_client()
-    _install(client.app)
-    single = client.post("/v1/contact", json=PAIR | {"include": ["manifold"]})
+    serve_exact_with(client.app, _NegativeDepths())
+    single = client.post("/v2/contact", json=PAIR | {"include": ["manifold"]})
     assert single.status_code == 200
-    depths = single.json()["manifold"]["depths"]
+    depths = single.json()["contacts"][0]["manifold"]["depths"]
     assert depths and all(d == 0.0 and str(d) == "0.0" for d in depths)
 
     columns = as_json(poses(20, seed=5), include=["manifold"])
-    text = client.post("/v1/contact/batch", json=columns)
+    text = client.post("/v2/contact/batch", json=columns)
     assert text.status_code == 200
-    assert np.min(text.json()["manifold_depths"]) == 0.0
-    assert "-" not in str(text.json()["manifold_depths"])  # no -0.0 either
+    assert np.min(text.json()["contacts"]["manifold_depths"]) == 0.0
+    assert "-" not in str(text.json()["contacts"]["manifold_depths"])  # no -0.0 either
 
-    binary = client.post("/v1/contact/batch", json=columns,
+    binary = client.post("/v2/contact/batch", json=columns,
                          headers={"Accept": "application/x-npz"})
     assert binary.status_code == 200
     with np.load(io.BytesIO(binary.content)) as npz:
-        assert (npz["manifold_depths"] == 0.0).all()
-        assert not np.signbit(npz["manifold_depths"]).any()
+        assert (npz["contact_manifold_depths"] == 0.0).all()
+        assert not np.signbit(npz["contact_manifold_depths"]).any()

@@ -42,7 +42,7 @@ JSON_ROWS_UNDER_BODY_LIMIT = 4_190_000
 MANIFOLD_ROWS = 100_000
 PARALLEL_MANIFOLD_BATCHES = 16
 NPZ = {"Content-Type": "application/x-npz"}
-MANIFOLD = "/v1/contact/batch?include=manifold&include=paper_angles"
+MANIFOLD = "/v2/contact/batch?include=manifold&include=paper_angles"
 
 
 def _npz(**columns) -> bytes:
@@ -69,7 +69,7 @@ def _rows_json(rows: int, layout_nested: bool = False) -> bytes:
 
 def _refused_unread(port: int, declared: int) -> bytes:
     with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
-        sock.sendall(b"POST /v1/contact/batch HTTP/1.1\r\nHost: x\r\nContent-Type: "
+        sock.sendall(b"POST /v2/contact/batch HTTP/1.1\r\nHost: x\r\nContent-Type: "
                      b"application/json\r\nContent-Length: %d\r\n\r\n[[0,0,0]," % declared)
         return read_reply(sock, 10)
 
@@ -108,9 +108,9 @@ def test_amplifying_requests_stay_within_the_memory_budget(server_factory):
                 b_quaternion=np.array([1, 0, 0, 0], np.int8))
     manifold_batch = _int8_batch(MANIFOLD_ROWS)
     with HealthSampler(proc.port) as health:
-        bombs = _parallel(4, lambda: post(proc.port, "/v1/contact/batch", bomb, NPZ))
+        bombs = _parallel(4, lambda: post(proc.port, "/v2/contact/batch", bomb, NPZ))
         over = _refused_unread(proc.port, JSON_ROWS_OVER_BODY_LIMIT * 8 + 200)
-        under = [post(proc.port, "/v1/contact/batch", _rows_json(JSON_ROWS_UNDER_BODY_LIMIT, n))
+        under = [post(proc.port, "/v2/contact/batch", _rows_json(JSON_ROWS_UNDER_BODY_LIMIT, n))
                  for n in (False, True)]
         answers = _parallel(PARALLEL_MANIFOLD_BATCHES, lambda: post(
             proc.port, MANIFOLD, manifold_batch, NPZ, timeout=300))
@@ -135,7 +135,7 @@ def test_amplifying_requests_stay_within_the_memory_budget(server_factory):
 
 def test_a_batch_that_could_never_fit_the_budget_is_413(make_client):
     client = make_client(memory_budget_bytes=16 * 1024 * 1024)
-    response = client.post("/v1/contact/batch", content=_int8_batch(MANIFOLD_ROWS),
+    response = client.post("/v2/contact/batch", content=_int8_batch(MANIFOLD_ROWS),
                            headers=NPZ)
     answer = assert_error(response, 413, None, "batch_too_large")
     assert "whole budget" in answer["message"]
@@ -147,16 +147,16 @@ def test_no_room_in_the_budget_is_503_with_retry_after(make_client):
     held = budget.limit - 64 * 1024  # another request's reservations
     assert budget.try_reserve(held)
     try:
-        batch = client.post("/v1/contact/batch", content=_int8_batch(1000), headers=NPZ)
+        batch = client.post("/v2/contact/batch", content=_int8_batch(1000), headers=NPZ)
         assert_error(batch, 503, None, "overloaded")
         assert batch.headers["retry-after"] == "1"
-        upload = client.post("/v1/contact/batch", content=b"[" * (128 * 1024),
+        upload = client.post("/v2/contact/batch", content=b"[" * (128 * 1024),
                              headers={"Content-Type": "application/json"})
         assert_error(upload, 503, None, "overloaded")
         assert upload.headers["connection"] == "close"
     finally:
         budget.release(held)
-    assert client.post("/v1/contact/batch", content=_int8_batch(1000),
+    assert client.post("/v2/contact/batch", content=_int8_batch(1000),
                        headers=NPZ).status_code == 200
     assert budget.used == 0  # every lease was released
     text = client.get("/metrics").text

@@ -38,7 +38,7 @@ def test_stalled_uploads_hold_no_slot_and_get_408(server_factory):
         pair = orjson.dumps(PAIR)
         while time.monotonic() - started < BODY_TIMEOUT_S - 1.0:  # all the while they stall
             sent = time.monotonic()
-            status, _, body = post(proc.port, "/v1/contact", pair)
+            status, _, body = post(proc.port, "/v2/contact", pair)
             assert status == 200, body
             assert time.monotonic() - sent < NORMAL_LATENCY_S
         assert get(proc.port, "/readyz")[0] == 200  # nothing was refused: not saturated
@@ -83,7 +83,7 @@ def test_saturation_that_persists_turns_readyz_503_until_it_ends():
             before = await client.get("/readyz")
             refused, until = [], time.monotonic() + 0.6
             while time.monotonic() < until:
-                refused.append((await client.post("/v1/contact", json=PAIR)).status_code)
+                refused.append((await client.post("/v2/contact", json=PAIR)).status_code)
                 await asyncio.sleep(0.05)
             during = await client.get("/readyz")
             gate.release.set()
@@ -115,8 +115,8 @@ def test_the_compute_slot_is_free_while_the_answer_is_sent():
                 await release.wait()  # a client that does not read its answer yet
 
         scope = {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1",
-                 "method": "POST", "path": "/v1/contact/batch",
-                 "raw_path": b"/v1/contact/batch",
+                 "method": "POST", "path": "/v2/contact/batch",
+                 "raw_path": b"/v2/contact/batch",
                  "query_string": b"", "root_path": "", "scheme": "http",
                  "server": ("127.0.0.1", 8000), "client": ("127.0.0.1", 5000),
                  "headers": [(b"content-type", b"application/json")]}
@@ -130,7 +130,7 @@ def test_the_compute_slot_is_free_while_the_answer_is_sent():
         await asyncio.to_thread(started.wait, 10)
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
-            seen.append((await client.post("/v1/contact", json=PAIR)).status_code)
+            seen.append((await client.post("/v2/contact", json=PAIR)).status_code)
         release.set()
         await slow
         return seen

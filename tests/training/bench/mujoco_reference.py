@@ -1,7 +1,7 @@
 """Test helper: MuJoCo's box-box collider as an independent reference, in impactnet terms.
 
-Not a test module. The wrapper lives in :mod:`impactnet.training.bench.mujoco_reference` so that
-``impactnet bench`` (its "vs MuJoCo" column) and the tests share it; the conventions found for
+Not a test module. The wrapper lives in :mod:`impactnet.training.bench.accuracy.mujoco_reference` so
+that ``impactnet bench`` (its "vs MuJoCo" column) and the tests share it; the conventions found for
 MuJoCo 4.0 (half-extents, (w, x, y, z) quaternions, ``frame[0:3]`` from geom 0 = A to geom
 1 = B, ``dist < 0`` when penetrating, the whole clipped incident face as up to 8 contacts, the
 face preference within ~8.1 deg and 5 %) are written down there and re-checked in
@@ -19,9 +19,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from impactnet.training.bench.cop_frame import reference_frame
-from impactnet.training.bench.mujoco_reference import MAX_CONTACTS, MujocoBoxBox, mujoco_box_box
-from impactnet.training.bench.vs_mujoco import (
+from impactnet.training.bench.accuracy.cop_frame import reference_frame
+from impactnet.training.bench.accuracy.mujoco_reference import (
+    MAX_CONTACTS,
+    MujocoBoxBox,
+    mujoco_box_box,
+)
+from impactnet.training.bench.accuracy.vs_mujoco import (
     FACE_AXIS_RAD,
     NORMAL_TOL_DEG,
     angle_deg,
@@ -43,13 +47,13 @@ SAME_AXIS_DEG = 1e-6
 #: face's depth.
 MUJOCO_FACE_COSINE, MUJOCO_FACE_MARGIN = 0.99, 0.05
 #: An edge axis of ours closer than this (radians) to the least-overlap face's normal leans on
-#: that face: there DESIGN.md's tie rule must answer the face (the largest stacking tilt of
+#: that face: there docs/design.md's tie rule must answer the face (the largest stacking tilt of
 #: issue #11, 1e-2 rad, is such a lean), and MuJoCo's face preference does not excuse an edge
 #: answer. Farther out, up to MuJoCo's ~8.1 deg, its preferred face and our shallower edge pair
 #: are both right.
 FACE_LEAN_RAD = 1e-2
 #: Two axes whose overlaps differ by less than this (x the sum of both boxes' largest
-#: half-extents, the scale of an overlap's rounding) are equally deep: a tie (DESIGN.md). Far
+#: half-extents, the scale of an overlap's rounding) are equally deep: a tie (docs/design.md). Far
 #: above rounding (1e-16), far below what a simulator resolves (1 nm on 1 m).
 EQUAL_DEPTH_REL = 1e-9
 #: MuJoCo reports a contact down to a separation of 1e-13 x the summed half-sizes; a contact
@@ -67,7 +71,7 @@ _KEYS = ("size_a", "position_a", "quaternion_a", "size_b", "position_b", "quater
 
 def least_face_alignment(normal, args) -> np.ndarray:
     """Angle (radians, (n,)) between ``normal`` (n, 3) and the normal of the face axis of least
-    overlap, of A or B: the one face DESIGN.md's tie rule (rule 1) lets a leaning cross axis
+    overlap, of A or B: the one face docs/design.md's tie rule (rule 1) lets a leaning cross axis
     compete as. Overlaps by :func:`overlap_along`, the angle in the cross-product form."""
     quaternions = (args[2], args[5])
     axes = np.concatenate([Rotation.from_quat(q, scalar_first=True).as_matrix()
@@ -106,9 +110,10 @@ def disagreement_classes(args, ours, reference, errors) -> np.ndarray:
         The six pose arrays.
     ours : impactnet.models.contacts.Contacts
         The exact solver's answers.
-    reference : impactnet.training.bench.vs_mujoco.Reference
+    reference : impactnet.training.bench.accuracy.vs_mujoco.Reference
     errors : dict
-        ``impactnet.training.bench.vs_mujoco.mujoco_row_errors`` of ours against ``reference``.
+        ``impactnet.training.bench.accuracy.vs_mujoco.mujoco_row_errors`` of ours against
+        ``reference``.
 
     Classes, first match wins: AGREE (within the targets, or neither finds a contact);
     TOUCHING (the flags differ, the contact is within TOUCHING_REL deep); MUJOCO_FACE_PREFERENCE
@@ -117,12 +122,10 @@ def disagreement_classes(args, ours, reference, errors) -> np.ndarray:
     is the smaller, with MuJoCo's face within its cosine 0.99 and 5 %);
     EQUAL_DEPTH (ours and MuJoCo's normals are more than the normal target apart and equally
     deep: a tie, where either contact is right, except an edge pair of ours against a face of
-    MuJoCo's: DESIGN.md's tie rule prefers the face); UNEXPLAINED otherwise. A point that
-    differs at the same normal is never explained. (Inside
-    the face band, where MuJoCo answers an edge axis and DESIGN.md's tie rule prefers the face,
-    both points are references: ``impactnet.training.bench.vs_mujoco``; such rows are AGREE when
-    either
-    matches.)
+    MuJoCo's: docs/design.md's tie rule prefers the face); UNEXPLAINED otherwise. A point that
+    differs at the same normal is never explained. (Inside the face band, where MuJoCo answers an
+    edge axis and docs/design.md's tie rule prefers the face, both points are references:
+    ``impactnet.training.bench.accuracy.vs_mujoco``; such rows are AGREE when either matches.)
     """
     n = len(ours.depth)
     scale = reference.scale

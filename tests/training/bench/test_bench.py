@@ -13,8 +13,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from impactnet.models.box.exact import box_box
-from impactnet.training.bench import errors as er
-from impactnet.training.bench import paper
+from impactnet.training.bench.accuracy import errors as er
 from impactnet.training.bench.cli import add_arguments, run
 from impactnet.training.bench.measure import QUICK, with_overrides
 from impactnet.training.bench.methods import (
@@ -23,7 +22,8 @@ from impactnet.training.bench.methods import (
     learned_methods,
     predictor_method,
 )
-from impactnet.training.bench.polygon import PolygonConfig, PolygonMethod, grid_mesh
+from impactnet.training.bench.paper import grid_estimate as paper
+from impactnet.training.bench.paper.polygon import PolygonConfig, PolygonMethod, grid_mesh
 from impactnet.training.bench.pose_sets import figure2_poses, figure2_tilts
 from impactnet.training.bench.runner import run_bench
 

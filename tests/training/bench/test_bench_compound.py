@@ -2,8 +2,8 @@
 plot and the `impactnet bench compound` wiring."""
 import pytest
 
-from impactnet.training.bench import compound_detail
-from impactnet.training.bench.compound import measure, report, stacking_poses
+from impactnet.training.bench.compound import detail as compound_detail
+from impactnet.training.bench.compound.detail_one import measure, report, stacking_poses
 
 #: Small levels (label, detail, body B, oracle poses, reference poses) for the smoke runs.
 TINY_LEVELS = (("castings (detail 1)", 1, None, 40, 10),
@@ -31,9 +31,9 @@ def test_quick_measurement_reports_every_goal():
 def test_cost_against_detail_measures_every_reference_on_the_same_poses(tmp_path):
     pytest.importorskip("fcl")
     pytest.importorskip("mujoco")
-    from impactnet.training.bench.compound_refs import REFERENCES
-    from impactnet.training.bench.compound_report import plot
-    from impactnet.training.bench.compound_report import report as page
+    from impactnet.training.bench.compound.references import REFERENCES
+    from impactnet.training.bench.compound.report import plot
+    from impactnet.training.bench.compound.report import report as page
 
     rows = [compound_detail.measure_level("castings (detail 1)", 1, None, 40, 10, 1),
             compound_detail.measure_level("twistlocks, 8 sides", 2, 8, 10, 5, 1),
@@ -66,8 +66,8 @@ def test_cost_against_detail_measures_every_reference_on_the_same_poses(tmp_path
 
 
 def test_detail_two_goal_against_fcl_mesh_is_stated_met_or_not():
-    from impactnet.training.bench.compound_report import GOAL_MESH_RATIO
-    from impactnet.training.bench.compound_report import report as page
+    from impactnet.training.bench.compound.report import GOAL_MESH_RATIO
+    from impactnet.training.bench.compound.report import report as page
 
     level = {"level": "apertures (detail 2)", "poses": 10, "ref_poses": 5, "oracle_us": 100.0,
              "oracle_one_us": 1000.0, "contacts_per_pose": 20.0, "fcl_mesh_us": 2000.0}

@@ -4,8 +4,8 @@ from pathlib import Path
 import numpy as np
 
 from impactnet.models.geometry.poses import first_contact_poses
-from impactnet.training.bench.baseline import compare_single_pair
-from impactnet.training.bench.exact import GOAL_FCL_RATIO_1E5, Row, goals
+from impactnet.training.bench.exact.baseline import compare_single_pair
+from impactnet.training.bench.exact.vs_fcl import GOAL_FCL_RATIO_1E5, Row, goals
 
 REPO = Path(__file__).resolve().parents[3]
 
@@ -36,7 +36,7 @@ def test_baseline_of_this_checkout_against_itself_times_both_sides_on_the_same_p
 
 
 def test_mode_baseline_of_this_checkout_against_itself_reports_both_sides():
-    from impactnet.training.bench.baseline_modes import compare
+    from impactnet.training.bench.exact.baseline_modes import compare
 
     result = compare(REPO, REPO, "exact", "quay_crane", batch=200, rounds=1, log=lambda _: None)
     for side in ("baseline", "current"):

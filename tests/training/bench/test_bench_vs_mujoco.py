@@ -7,7 +7,8 @@ import pytest
 
 from impactnet.models.box.exact import box_box
 from impactnet.models.scenes import load_scene
-from impactnet.training.bench import report, vs_mujoco
+from impactnet.training.bench import report
+from impactnet.training.bench.accuracy import vs_mujoco
 from impactnet.training.bench.measure import with_overrides
 from impactnet.training.bench.methods import Answer, exact_method, fcl_box_method, predictor_method
 from impactnet.training.bench.pose_sets import scene_poses

@@ -1,12 +1,11 @@
 """The grid centre-of-pressure reference, and the exact solver's closed-form point against it.
 
 The reference (``tests/training/bench/cop_reference.py``) shares no code with the solver's manifold
-and clipping. It is checked on contacts with a known answer (a flat stack: the footprint's
-centroid at half the depth; a landing edge: a third of the depth; a landing vertex: a
-quarter), for the symmetry of swapping A and B, and for its own convergence, which justifies
-the tolerance of the comparison with ``impactnet.models.box.exact.box_box(...).point`` on random
-face
-contacts of every type (vertex-face, edge-face, face-face).
+and clipping. It is checked on contacts with a known answer (a flat stack: the footprint's centroid
+at half the depth; a landing edge: a third of the depth; a landing vertex: a quarter), for the
+symmetry of swapping A and B, and for its own convergence, which justifies the tolerance of the
+comparison with ``impactnet.models.box.exact.box_box(...).point`` on random face contacts of every
+type (vertex-face, edge-face, face-face).
 """
 import numpy as np
 import pytest
@@ -25,7 +24,7 @@ GRID, FINE_GRID = (64, 55), (128, 89)
 #: footprint's longer side and POINT_TOL_EDGE x the pair's shortest edge (metres). Each is
 #: twice the worst error of the GRID reference measured against a 384 / 89 grid (7e-4 of the
 #: footprint, 3.1e-4 of the edge; cop_reference's table), and test_grid_converges_* checks
-#: half of it on every row here. 2 mm on a 2 m cube: the 6.7 mm jump of DESIGN.md's "one
+#: half of it on every row here. 2 mm on a 2 m cube: the 6.7 mm jump of docs/design.md's "one
 #: incident face alone" rule, or a vertex mean (percents), would fail it.
 POINT_TOL_FOOTPRINT, POINT_TOL_EDGE = 2e-3, 1e-3
 #: Analytic cases: relative error allowed (x push depth, metres). The midpoint rule is exact on

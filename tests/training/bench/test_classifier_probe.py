@@ -3,7 +3,7 @@ pairs row by row, and its figures are shares that behave as a margin sweep must.
 import numpy as np
 import pytest
 
-from impactnet.training.bench import classifier_probe as cp
+from impactnet.training.bench.learned import classifier_probe as cp
 
 pytest.importorskip("torch")
 

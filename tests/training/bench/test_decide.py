@@ -5,7 +5,7 @@ from dataclasses import replace
 import pytest
 
 from impactnet.models.scenes import Accuracy
-from impactnet.training.bench import decide as dc
+from impactnet.training.bench.learned import decide as dc
 
 ACCURACY = Accuracy(normal_deg=1.0, point_fraction=0.02)
 HELD_OUT = {"normal_p99_deg": 0.2, "point_p99_fraction": 0.015}

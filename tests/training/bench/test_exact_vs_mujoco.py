@@ -1,17 +1,16 @@
 """Exact solver against MuJoCo's box-box collider and the grid centre of pressure.
 
 Issue #11 items 3-4 and #18 item 2. Reference of each row
-(:mod:`impactnet.training.bench.vs_mujoco`):
-MuJoCo's normal; as point, the centre of pressure on the face best aligned with MuJoCo's normal
-where that normal lies within 1 deg of a face normal, else MuJoCo's edge-edge point. A row is
-within the targets when our normal is within 1 deg of MuJoCo's and our point within 2 % of the
-pair's shortest edge (the cube edge; 2.438 m for the containers) of the reference point.
+(:mod:`impactnet.training.bench.accuracy.vs_mujoco`): MuJoCo's normal; as point, the centre of
+pressure on the face best aligned with MuJoCo's normal where that normal lies within 1 deg of a face
+normal, else MuJoCo's edge-edge point. A row is within the targets when our normal is within 1 deg
+of MuJoCo's and our point within 2 % of the pair's shortest edge (the cube edge; 2.438 m for the
+containers) of the reference point.
 
-Sets: (a) stacking, B on A's top face, per tilt 0 and 1e-12 .. 1e-2 rad, for 2 m cubes,
-20 ft on 40 ft and 40 ft on 40 ft containers; (b) uniform first contacts of the quay-crane
-scene's pairs; (c) edge-on-edge contacts, crossed at 90 deg and skewed (1-90 deg). Every row
-outside the targets must fall in an explained class
-(:func:`tests.training.bench.mujoco_reference.disagreement_classes`).
+Sets: (a) stacking, B on A's top face, per tilt 0 and 1e-12 .. 1e-2 rad, for 2 m cubes, 20 ft on 40
+ft and 40 ft on 40 ft containers; (b) uniform first contacts of the quay-crane scene's pairs; (c)
+edge-on-edge contacts, crossed at 90 deg and skewed (1-90 deg). Every row outside the targets must
+fall in an explained class (:func:`tests.training.bench.mujoco_reference.disagreement_classes`).
 """
 import numpy as np
 import pytest
@@ -21,7 +20,7 @@ from impactnet.models.box.exact import box_box
 from impactnet.models.geometry.approach import touching_distance
 from impactnet.models.scenes import load_scene
 from impactnet.training.bench import contact_sets as cs
-from impactnet.training.bench import vs_mujoco as vm
+from impactnet.training.bench.accuracy import vs_mujoco as vm
 from impactnet.training.bench.pose_sets import scene_poses
 from tests.models.box.fcl_reference import fcl_box_box
 from tests.training.bench.mujoco_reference import (

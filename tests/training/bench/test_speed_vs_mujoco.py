@@ -89,9 +89,9 @@ def test_explicit_pair_model_answers_each_pair_as_a_two_box_model():
 
 def test_compound_harness_finds_the_part_pairs_of_the_reference_loop():
     from impactnet.models.compound import crane_bodies as cb
-    from impactnet.training.bench.compound import stacking_poses
-    from impactnet.training.bench.compound_mujoco import pairs_of
-    from impactnet.training.bench.compound_refs import mujoco_single
+    from impactnet.training.bench.compound.detail_one import stacking_poses
+    from impactnet.training.bench.compound.mujoco_model import pairs_of
+    from impactnet.training.bench.compound.references import mujoco_single
     from impactnet.training.bench.speed.mujoco_calls import compound_call
 
     parts = cb.container("40ft", 2)
@@ -169,7 +169,7 @@ def test_a_stage_source_without_its_functions_gives_a_note_not_a_failure():
 
 def test_todays_stage_sources_run_every_stage():
     from impactnet.models.compound import crane_bodies as cb
-    from impactnet.training.bench.compound import stacking_poses
+    from impactnet.training.bench.compound.detail_one import stacking_poses
     from impactnet.training.bench.speed.stage_sources import box_stages, compound_stages
 
     stages, whole = box_stages(stacking_set(40, seed=1).args())
@@ -178,8 +178,9 @@ def test_todays_stage_sources_run_every_stage():
     position, quaternion = stacking_poses(4, seed=1)
     found, answer = compound_stages(parts, np.zeros(3), np.array([1.0, 0, 0, 0]), parts,
                                     position, quaternion)
-    assert list(found) == ["broadphase", "box parts", "convex parts", "covered-surface filter",
-                           "summary"]
+    assert list(found) == ["input rows and checks", "broadphase",
+                           "box parts (+ filter, summary)", "convex parts (+ filter, summary)",
+                           st.PART_OF + "summary"]
     for stage in [*stages.values(), whole, *found.values()]:
         stage()
     assert len(answer()) == 4
@@ -187,7 +188,7 @@ def test_todays_stage_sources_run_every_stage():
 
 def test_compound_level_gets_n1_and_batch_ratios_against_mujoco_from_python():
     from impactnet.models.compound import crane_bodies as cb
-    from impactnet.training.bench.compound import stacking_poses
+    from impactnet.training.bench.compound.detail_one import stacking_poses
     from impactnet.training.bench.speed.compound_speed import goal_lines, one_pose, table
 
     parts = cb.container("40ft", 1)

@@ -6,7 +6,7 @@ import functools
 
 import numpy as np
 
-from impactnet.models.bundle.format import bundle_in_memory
+from impactnet.models.learned.bundle_loader import bundle_in_memory
 from impactnet.models.learned.compound import chain_of
 from impactnet.models.learned.compound.groups import CORNER_MIRRORS, mirror_map, part_groups
 from impactnet.models.scenes import load_scene

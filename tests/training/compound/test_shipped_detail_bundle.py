@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from impactnet.models.bundle.format import read_bundle
 from impactnet.models.bundle.store import resolve_bundle
+from impactnet.models.learned.bundle_loader import read_bundle
 from impactnet.models.learned.compound import chain_of
 from impactnet.models.predictors import DEFAULT_BUNDLE
 from impactnet.models.scenes import load_scene

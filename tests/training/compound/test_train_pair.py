@@ -5,8 +5,8 @@ expert choice, the decision carries the issue's figures, and the bundle written 
 back with a chain that answers like the oracle on the held-out rows it names."""
 import numpy as np
 
-from impactnet.models.bundle.format import bundle_in_memory, read_bundle, write_bundle
 from impactnet.models.compound import compound_answer
+from impactnet.models.learned.bundle_loader import bundle_in_memory, read_bundle, write_bundle
 from impactnet.models.learned.compound import chain_of
 from impactnet.models.scenes import load_scene
 from impactnet.training.compound.classify import CANDIDATE_FLOOR

@@ -10,8 +10,8 @@ import os
 import pytest
 
 from impactnet.cli import main
-from impactnet.models.bundle.format import read_bundle
 from impactnet.models.bundle.store import current_version, resolve_bundle
+from impactnet.models.learned.bundle_loader import read_bundle
 from tests.compound_bundle import guide_scene
 
 PAIR = "cell_guide/container40"

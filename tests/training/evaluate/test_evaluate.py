@@ -7,8 +7,9 @@ import pytest
 import safetensors.numpy
 
 from impactnet.cli import main
-from impactnet.models.bundle.format import WEIGHTS, read_bundle, write_bundle
+from impactnet.models.bundle.format import WEIGHTS
 from impactnet.models.bundle.store import resolve_bundle
+from impactnet.models.learned.bundle_loader import read_bundle, write_bundle
 from impactnet.models.predictors import ExactPredictor
 from impactnet.models.scenes import load_scene
 from impactnet.training.evaluate.cli import EXIT_GOAL_MISSED, EXIT_OK

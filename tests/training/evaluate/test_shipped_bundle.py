@@ -14,8 +14,8 @@ import pytest
 
 from impactnet import models
 from impactnet.models.box.exact import box_box
-from impactnet.models.bundle.format import read_bundle
 from impactnet.models.bundle.store import resolve_bundle
+from impactnet.models.learned.bundle_loader import read_bundle
 from impactnet.models.learned.region_label import unclipped_points
 from impactnet.models.predictors import DEFAULT_BUNDLE
 from impactnet.models.scenes import load_scene
@@ -37,10 +37,9 @@ AUTO_POINT_P99_PCT = 4.0
 AUTO_FALLBACK_MAX = 0.65
 #: Rows per pair compared one by one against their batch answer.
 ONE_BY_ONE_ROWS = 150
-#: Agreement of the N = 1 and batch answers, as a share of the scene's point tolerance: the
-#: features are float32 on both paths, rounded differently; the networks' input scales are
-#: floored so that this rounding is not amplified
-#: (impactnet.training.fit.torch_mlp.INPUT_SCALE_FLOOR).
+#: Agreement of the N = 1 and batch answers, as a share of the scene's point tolerance: the features
+#: are float32 on both paths, rounded differently; the networks' input scales are floored so that
+#: this rounding is not amplified (impactnet.training.fit.torch_mlp.INPUT_SCALE_FLOOR).
 ONE_BY_ONE_TOL_SHARE = 0.2
 
 

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from impactnet.models import load_predictor
-from impactnet.models.bundle.format import read_bundle
 from impactnet.models.bundle.store import current_version
+from impactnet.models.learned.bundle_loader import read_bundle
 from impactnet.models.scenes import load_scene
-from impactnet.training.bench import decide as dc
+from impactnet.training.bench.learned import decide as dc
 from impactnet.training.jobs import decisions, retrain
 from impactnet.training.jobs.retrain import JobConfig, run_train_job
 from impactnet.training.jobs.scene import quick_config

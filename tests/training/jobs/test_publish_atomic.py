@@ -10,8 +10,8 @@ import time
 import pytest
 
 from impactnet.cli import main
-from impactnet.models.bundle.format import read_bundle
 from impactnet.models.bundle.store import VERSIONS, current_version, resolve_bundle
+from impactnet.models.learned.bundle_loader import read_bundle
 from tests.training.sweep.test_sweep import loose_scene, sweep_args
 
 #: Longest a poller may run, in seconds: a bound on the tight loop if a publish hangs.

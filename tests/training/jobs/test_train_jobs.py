@@ -1,6 +1,5 @@
 """Retraining jobs (impactnet.training.jobs.retrain, `impactnet train`): versioned bundles behind a
-gate,
-reuse of unchanged pairs (from the cache, or from the current bundle where there is no cache),
+gate, reuse of unchanged pairs (from the cache, or from the current bundle where there is no cache),
 resume after a kill with the same result."""
 from __future__ import annotations
 
@@ -18,8 +17,9 @@ import pytest
 import safetensors.numpy
 
 from impactnet.models import load_predictor
-from impactnet.models.bundle.format import WEIGHTS, read_bundle
+from impactnet.models.bundle.format import WEIGHTS
 from impactnet.models.bundle.store import REJECTED, VERSIONS, current_version, resolve_bundle
+from impactnet.models.learned.bundle_loader import read_bundle
 from impactnet.models.scenes import Accuracy, load_scene, scene_path
 from impactnet.training.data.pair_cache import PairCache, reprefix
 from impactnet.training.fit.validation_gate import GateConfig, validation_gate

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from impactnet.models import load_predictor
-from impactnet.models.bundle.format import read_bundle
 from impactnet.models.bundle.store import resolve_bundle
+from impactnet.models.learned.bundle_loader import read_bundle
 from impactnet.models.scenes import load_scene
 from impactnet.training.data.datagen import generate_pairs
 from impactnet.training.evaluate.scene_figures import GOALS
@@ -90,7 +90,7 @@ def test_a_pair_without_any_region_class_trains_and_answers(tmp_path):
     import dataclasses
 
     from impactnet.models.box.exact import box_box
-    from impactnet.models.bundle.format import bundle_in_memory
+    from impactnet.models.learned.bundle_loader import bundle_in_memory
     from impactnet.training.data.pair_data import PairDataConfig
     from impactnet.training.jobs.scene import build_manifest
 

@@ -12,7 +12,8 @@ from impactnet.models import load_predictor
 from impactnet.models.bundle.store import current_version
 from impactnet.models.scenes import scene_path
 from impactnet.training.jobs.scene import quick_config
-from impactnet.training.sweep.run import SweepConfig, hopeless, open_study, state_counts
+from impactnet.training.sweep.pruning import hopeless
+from impactnet.training.sweep.run import SweepConfig, open_study, state_counts
 from impactnet.training.sweep.space import config_from_params, quick_space, suggest
 
 #: Loose tolerances, so that a quick model meets them and a pick exists.

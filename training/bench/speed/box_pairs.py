@@ -6,12 +6,12 @@
   ``mj_kinematics``, ``mj_collision``, the contacts' pos, frame and dist out as arrays), on the
   same distinct poses spread over the set; the two timed in alternating slices, each call on
   its own, medians (:func:`impactnet.training.bench.timing.alternated`).
-* Batch: ``box_box`` on the whole set in one call (six (n, .) arrays in, the ``Contacts`` out)
-  with the kernels' threads at the machine's cores, and at one thread
-  (:func:`impactnet.models.compiled.set_threads`); against MuJoCo's C rate: ``mj_collision``
-  per pair over blocks of 1,000 explicit pairs
-  (:class:`impactnet.training.bench.speed.mujoco_calls.ExplicitPairs`; ``mj_kinematics`` per
-  pair recorded beside it). Repeats alternate the three; medians.
+* Batch: ``box_box`` on the whole set in one call (six (n, .) arrays in, the ``Contacts`` out) with
+  the kernels' threads at the machine's cores, and at one thread
+  (:func:`impactnet.models.compiled.set_threads`); against MuJoCo's C rate: ``mj_collision`` per
+  pair over blocks of 1,000 explicit pairs
+  (:class:`impactnet.training.bench.speed.mujoco_calls.ExplicitPairs`; ``mj_kinematics`` per pair
+  recorded beside it). Repeats alternate the three; medians.
 
 Ratios are ours / MuJoCo as time per pair (:mod:`impactnet.training.bench.speed.ratios`).
 """

@@ -1,5 +1,5 @@
 """``compound_answer`` against MuJoCo 4 called from Python, per level of ``impactnet bench
-compound`` (:mod:`impactnet.training.bench.compound_detail`).
+compound`` (:mod:`impactnet.training.bench.compound.detail`).
 
 * N = 1: ``compound_answer`` on one pose per call (A at the origin, B's pose; both passed, the
   answer's arrays out), against MuJoCo's one pose from Python

@@ -10,9 +10,9 @@ region of a call is
 4. copy the contacts' ``pos`` (k, 3), ``frame`` (k, 9) and ``dist`` (k,) into new NumPy arrays
    (compound poses also ``geom`` (k, 2): which parts touch).
 
-The box pair model is :func:`impactnet.training.bench.mujoco_reference.box_pair_model` (two free
-box geoms, margins 0); the compound model is
-:func:`impactnet.training.bench.compound_mujoco.mujoco_model` with ``multiccd`` off (one geom
+The box pair model is :func:`impactnet.training.bench.accuracy.mujoco_reference.box_pair_model` (two
+free box geoms, margins 0); the compound model is
+:func:`impactnet.training.bench.compound.mujoco_model.mujoco_model` with ``multiccd`` off (one geom
 per part, meshes for convex parts).
 
 Many pairs (:class:`ExplicitPairs`): one model of :data:`MODEL_PAIRS` box pairs (twice as many
@@ -57,7 +57,7 @@ def box_pair_call(size_a, size_b):
     """``call(position_a, quaternion_a, position_b, quaternion_b) -> (pos, frame, dist)``:
     MuJoCo's contacts of one pose of two boxes of full edge lengths ``size_a``, ``size_b``
     (metres), the timed region of the module docstring."""
-    from impactnet.training.bench.mujoco_reference import box_pair_model
+    from impactnet.training.bench.accuracy.mujoco_reference import box_pair_model
 
     return _pose_call(*box_pair_model(tuple(0.5 * np.asarray(size_a, np.float64)),
                                       tuple(0.5 * np.asarray(size_b, np.float64))), geom=False)
@@ -67,7 +67,7 @@ def compound_call(parts_a, parts_b):
     """``call(position_a, quaternion_a, position_b, quaternion_b) -> (pos, frame, dist,
     geom)``: MuJoCo's contacts of one pose of two compound bodies (module docstring); geoms
     ``0 .. len(parts_a) - 1`` are A's parts, the next ones B's."""
-    from impactnet.training.bench.compound_mujoco import mujoco_model
+    from impactnet.training.bench.compound.mujoco_model import mujoco_model
 
     return _pose_call(*mujoco_model(parts_a, parts_b, multiccd=False), geom=True)
 

@@ -16,7 +16,7 @@ import numpy as np
 from impactnet.training.bench.speed import box_pairs
 from impactnet.training.bench.speed import stages as st
 
-#: The compound oracle's profiled levels (labels of ``compound_detail.LEVELS``).
+#: The compound oracle's profiled levels (labels of ``compound.detail.LEVELS``).
 PROFILE_LEVELS = ("apertures (detail 2)", "twistlocks, 32 sides", "cell guide")
 
 
@@ -39,7 +39,7 @@ QUICK_SPEED = SpeedPlan(pairs=10_000, single_calls=300, single_warmup=30, repeat
 
 
 def _compound_profile(label: str, poses: int, seed: int, repeats: int) -> dict:
-    from impactnet.training.bench.compound_detail import LEVELS, level_poses
+    from impactnet.training.bench.compound.detail import LEVELS, level_poses
     from impactnet.training.bench.speed.stage_sources import compound_stages
 
     _, detail, body_b, _, _ = next(level for level in LEVELS if level[0] == label)
@@ -67,8 +67,8 @@ def profiles(plan: SpeedPlan, scene_set, seed: int, log=lambda message: None) ->
 def measure(plan: SpeedPlan, scene_set, seed: int, log=lambda message: None) -> dict:
     """The section's figures as plain JSON types: the box-pair families (scene set, stacking;
     None with the reason where MuJoCo is missing) and the profiles."""
+    from impactnet.training.bench.accuracy.vs_mujoco import mujoco_missing
     from impactnet.training.bench.pose_sets import stacking_set
-    from impactnet.training.bench.vs_mujoco import mujoco_missing
 
     box_pairs.warm_kernels(log)
     note = mujoco_missing()
@@ -124,8 +124,8 @@ def run(quick: bool, out, seed: int = 0, scene: str = "quay_crane", log=None) ->
     import time
 
     from impactnet.models.scenes import load_scene
+    from impactnet.training.bench.markdown import machine_line
     from impactnet.training.bench.pose_sets import scene_poses
-    from impactnet.training.bench.report import machine_line
     from impactnet.training.bench.timing import machine_info
 
     log = log or (lambda message: print(message, file=sys.stderr, flush=True))

@@ -107,10 +107,10 @@ def test_a_pooled_corner_names_its_regions_in_its_own_frame():
                           np.array([plus_x, plus_x + 1]), mlp, 1.0, 0.01,
                           np.full(N_GROUP_FEATURES, -np.inf), np.full(N_GROUP_FEATURES, np.inf),
                           tuple(CORNER_MIRRORS["al"]))  # mirrored across x
-    prob, logits, inside = clf.probabilities(np.zeros((1, 3)), np.eye(3)[None])
-    codes, share = clf.regions(logits, np.array([0]), np.array([0]))
-    assert describe_region(codes[0]) == {"type": "face-face", "face_a": "-x", "face_b": "+x"}
-    np.testing.assert_allclose(share, 1 / (1 + np.exp(-2.0)), rtol=1e-6)
+    got = clf.classify(np.zeros((1, 3)), np.eye(3)[None])
+    assert describe_region(got.region[0, 0]) == {"type": "face-face", "face_a": "-x",
+                                                 "face_b": "+x"}
+    np.testing.assert_allclose(got.share[0, 0], 1 / (1 + np.exp(-2.0)), rtol=1e-12)
 
 
 def test_each_candidate_gets_the_best_of_its_own_labels_slots_however_many():
@@ -125,9 +125,9 @@ def test_each_candidate_gets_the_best_of_its_own_labels_slots_however_many():
     clf = GroupClassifier(group, np.array([[0, 0], [1, 1], [2, 2]]), slot_label, codes, mlp,
                           1.0, 0.01, np.full(N_GROUP_FEATURES, -np.inf),
                           np.full(N_GROUP_FEATURES, np.inf))
-    assert clf.slot_table.tolist() == [[0, -1, -1], [1, 2, 3], [4, -1, -1]]
-    _, logits, _ = clf.probabilities(np.zeros((2, 3)), np.tile(np.eye(3), (2, 1, 1)))
-    got, share = clf.regions(logits, np.array([0, 1, 1, 0]), np.array([0, 1, 2, 1]))
-    np.testing.assert_array_equal(got, codes[[0, 2, 4, 2]])  # a lone slot is sure, whatever
-    np.testing.assert_allclose(share[[0, 2]], 1.0)
-    np.testing.assert_allclose(share[1], np.exp(4) / np.exp([0.0, 4.0, 1.0]).sum(), rtol=1e-6)
+    got = clf.classify(np.zeros((2, 3)), np.tile(np.eye(3), (2, 1, 1)))
+    for pose in (0, 1):  # every label's region, whichever pose
+        np.testing.assert_array_equal(got.region[pose], codes[[0, 2, 4]])  # a lone slot: sure
+        np.testing.assert_allclose(got.share[pose, [0, 2]], 1.0)
+        np.testing.assert_allclose(got.share[pose, 1], np.exp(4) / np.exp([0.0, 4.0, 1.0]).sum(),
+                                   rtol=1e-12)

@@ -1,0 +1,97 @@
+"""The serving core's solve: a request's pairs through the one dispatcher
+(:mod:`impactnet.models.dispatch`), admitted before they are solved.
+
+Steps, each in the lane its known cost chooses (:mod:`impactnet.service.limits.lanes`), under
+the request's deadline and its client's disconnect: the plan (the split of the rows: cheap, ~
+the rows), the count (the broadphase's candidates under the caps), the memory reserved in the
+request's lease (the candidates, one slice's working set, the largest answer), then the solve.
+A single box pair skips the lanes: it costs less than a thread hop. The models' refusals
+become the API's errors: 413 naming the limit, 422 for a strict learned mode without a model.
+"""
+from __future__ import annotations
+
+from impactnet.models.compound.candidates import TooManyCandidates
+from impactnet.models.dispatch import Caps, TooManyContacts
+from impactnet.models.learned.pair_dispatch import UnsupportedPairError
+from impactnet.service.errors import LimitRefused, UnsupportedPair
+from impactnet.service.limits.budget import Lease, MemoryBudget
+from impactnet.service.limits.lanes import Work
+
+
+def caps_of(settings) -> Caps:
+    """The dispatcher's caps (the settings of the same meaning)."""
+    return Caps(settings.max_candidates_per_pose, settings.max_candidates_per_request,
+                settings.max_part_contacts_per_pose, settings.max_part_contacts_per_batch)
+
+
+def _refused(exc: Exception, mode: str, batch: bool) -> Exception:
+    """The API's error of a models' refusal."""
+    if isinstance(exc, TooManyCandidates):
+        if exc.pose is not None:
+            return LimitRefused("too_many_candidates", "pairs", f"row {exc.pose} has "
+                                f"{exc.count} candidate part pairs, more than "
+                                f"max_candidates_per_pose ({exc.cap})", "max_candidates_per_pose")
+        return LimitRefused("too_many_candidates", "pairs", f"the request has more than "
+                            f"{exc.cap} candidate part pairs (max_candidates_per_request); "
+                            "send fewer rows per request", "max_candidates_per_request")
+    if isinstance(exc, TooManyContacts):
+        if exc.row is not None:
+            return LimitRefused("too_many_part_contacts", "pairs", f"row {exc.row} has "
+                                f"{exc.count} part contacts, more than "
+                                f"max_part_contacts_per_pose ({exc.cap})",
+                                "max_part_contacts_per_pose")
+        return LimitRefused("too_many_part_contacts", "pairs", f"the request has more than "
+                            f"{exc.cap} part contacts (max_part_contacts_per_batch); send "
+                            "fewer rows per request", "max_part_contacts_per_batch")
+    return UnsupportedPair(mode, exc.rows, exc.pairs, batch)
+
+
+_REFUSALS = (TooManyCandidates, TooManyContacts, UnsupportedPairError)
+
+
+def _plan(dispatcher, pairs, mode, include, margin):
+    return dispatcher.plan(pairs, mode, include, margin)
+
+
+def _count(dispatcher, plan, caps: Caps, lease: Lease):
+    try:
+        plan = dispatcher.count(plan, caps)
+    except _REFUSALS as exc:
+        raise _refused(exc, plan.mode, len(plan.pairs) > 1) from None
+    lease.reserve(plan.memory_bytes(caps.contacts_per_request),
+                  f"solving {len(plan.pairs)} pairs ({plan.candidates} candidate part pairs)")
+    return plan
+
+
+def _solve(dispatcher, plan, caps: Caps):
+    try:
+        return dispatcher.solve(plan, caps)
+    except _REFUSALS as exc:
+        raise _refused(exc, plan.mode, len(plan.pairs) > 1) from None
+
+
+def _inline(dispatcher, pairs, mode, include, margin, caps, lease):
+    """The three steps at once (a single box pair)."""
+    plan = _count(dispatcher, _plan(dispatcher, pairs, mode, include, margin), caps, lease)
+    return _solve(dispatcher, plan, caps)
+
+
+def solve_now(dispatcher, pairs, mode: str, include, margin: float, settings):
+    """Plan, count and solve at once in this thread, under the settings' caps and memory
+    budget (``impactnet contact``: one request, nothing else running)."""
+    lease = Lease(MemoryBudget(settings.memory_budget_bytes, 0.0, 1))
+    return _inline(dispatcher, pairs, mode, include, margin, caps_of(settings), lease)
+
+
+async def solve(work: Work, state, pairs, mode: str, include=(), margin: float = 0.0,
+                lease: Lease | None = None):
+    """The answers of ``pairs`` in ``mode`` (module docstring)."""
+    state.predictor(mode)  # 409 when the mode is not served
+    settings = work.runtime.settings
+    caps, dispatcher = caps_of(settings), state.dispatcher
+    lease = lease if lease is not None else Lease(work.runtime.budget)
+    if len(pairs) == 1 and all(s.is_box for s in pairs.shapes):
+        return _inline(dispatcher, pairs, mode, include, margin, caps, lease)
+    plan = await work.run(len(pairs), _plan, dispatcher, pairs, mode, include, margin)
+    plan = await work.run(plan.work, _count, dispatcher, plan, caps, lease)
+    return await work.run(plan.work, _solve, dispatcher, plan, caps)

@@ -1,0 +1,1 @@
+"""Tests of the project's documents: figures named by their commands, examples that run."""
