@@ -31,6 +31,7 @@ from impactnet.service.api.routers import (
     models,
 )
 from impactnet.service.api.schemas import BatchRequest, ContactRequest, ReloadRequest
+from impactnet.service.codecs.requests import FrameRequest, WorldRequest
 from impactnet.service.limits.body import BodyReader
 from impactnet.service.predictors import ServingState
 from impactnet.service.reload import Reloader
@@ -79,7 +80,8 @@ def _openapi(app: FastAPI, admin: bool):
     """The generated schema plus the request models, which the routes parse themselves (the
     batch with NumPy, the single pair and the reload with pydantic's JSON parser), so FastAPI
     does not add them by itself."""
-    requests = (ContactRequest, BatchRequest) + ((ReloadRequest,) if admin else ())
+    requests = (ContactRequest, BatchRequest, FrameRequest, WorldRequest) + (
+        (ReloadRequest,) if admin else ())
 
     def build() -> dict:
         if app.openapi_schema is None:

@@ -18,6 +18,8 @@ import sys
 import sysconfig
 import urllib.request
 import zipfile
+from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 
@@ -110,23 +112,43 @@ def test_wheel_installs_everything_under_the_impactnet_namespace(wheel_dir):
     assert not any("/.cache/" in n or "/rejected/" in n for n in names)
 
 
-@pytest.mark.slow
-def test_runtime_install_serves_without_torch_beside_foreign_models_and_service(tmp_path,
-                                                                                 wheel_dir):
-    venv = tmp_path / "venv"
+@dataclass(frozen=True)
+class Installed:
+    """The wheel installed in a fresh virtualenv as docker/Dockerfile's runtime stage does,
+    its kernels compiled into their cache (the image's build step)."""
+
+    venv: Path
+    python: str
+    site: str  # its site-packages
+    env: dict  # the runtime stage's environment (docker/Dockerfile's ENV lines)
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory, wheel_dir) -> Installed:
+    """One install and one compile for the tests of this module (a cold compile of every
+    kernel takes minutes on 2 cores: paid once)."""
+    root = tmp_path_factory.mktemp("installed")
+    venv = root / "venv"
     python, site = _fresh_venv(venv, wheel_dir)
-    _run(python, "-c", "import importlib.util, sys; "
-         "sys.exit(importlib.util.find_spec('torch') is not None)")
-    installed = _run(python, "-m", "pip", "list", "--format=json")
-    names = {p["name"].lower() for p in json.loads(installed)}
-    assert "torch" not in names and {"fastapi", "uvicorn", "numpy", "orjson"} <= names
-    workdir = tmp_path / "app"  # outside the source tree
-    workdir.mkdir()
-    env = {**_env(venv), **KERNEL_ENV, "IMPACTNET_KERNEL_CACHE_DIR": str(tmp_path / "kernels")}
+    env = {**_env(venv), **KERNEL_ENV, "IMPACTNET_KERNEL_CACHE_DIR": str(root / "kernels")}
     assert all(f"{k}={v}" in (REPO / "docker" / "Dockerfile").read_text()
                for k, v in KERNEL_ENV.items())
     # RUN python -m impactnet.models.compiled: the image compiles every kernel while it is built.
-    _run(python, "-m", "impactnet.models.compiled", cwd=workdir, env=env)
+    _run(python, "-m", "impactnet.models.compiled", cwd=root, env=env)
+    return Installed(venv, python, site, env)
+
+
+@pytest.mark.slow
+def test_runtime_install_serves_without_torch_beside_foreign_models_and_service(tmp_path,
+                                                                                 installed):
+    venv, python, site, env = installed.venv, installed.python, installed.site, installed.env
+    _run(python, "-c", "import importlib.util, sys; "
+         "sys.exit(importlib.util.find_spec('torch') is not None)")
+    installed_list = _run(python, "-m", "pip", "list", "--format=json")
+    names = {p["name"].lower() for p in json.loads(installed_list)}
+    assert "torch" not in names and {"fastapi", "uvicorn", "numpy", "orjson"} <= names
+    workdir = tmp_path / "app"  # outside the source tree
+    workdir.mkdir()
     # The foreign packages are still theirs, and impactnet's are its own.
     _run(python, "-c", "import models, service, impactnet.models.box.exact as e, sys; "
          "sys.exit(models.FOREIGN != 'models' or service.FOREIGN != 'service' or "
@@ -176,21 +198,24 @@ def test_runtime_install_serves_without_torch_beside_foreign_models_and_service(
 
 
 @pytest.mark.slow
-def test_installed_wheel_runs_the_quick_benchmark_outside_the_tree(tmp_path, wheel_dir):
+def test_installed_wheel_runs_the_quick_benchmark_outside_the_tree(tmp_path, installed):
     """``training/bench`` ships in the wheel. The training stack (torch, SciPy, python-fcl,
     matplotlib, MuJoCo) is taken from this test run's environment through a ``.pth`` line
-    after the fresh site-packages, so impactnet itself still comes from the wheel; resolving
-    the train extra from the index is what ``make test``'s own install checks."""
-    venv = tmp_path / "venv"
-    python, site = _fresh_venv(venv, wheel_dir)
-    with open(os.path.join(site, "zz_training_stack.pth"), "w", encoding="utf-8") as f:
-        f.write(sysconfig.get_paths()["purelib"] + "\n")
+    after the fresh site-packages (removed afterwards: the runtime test's install has no
+    torch), so impactnet itself still comes from the wheel; resolving the train extra from the
+    index is what ``make test``'s own install checks."""
+    python, site = installed.python, installed.site
+    stack = Path(site) / "zz_training_stack.pth"
+    stack.write_text(sysconfig.get_paths()["purelib"] + "\n", encoding="utf-8")
     workdir = tmp_path / "run"
     workdir.mkdir()
-    env = {**os.environ, **_env(venv)}
-    _run(python, "-c", "import impactnet.training.bench.runner as r, sys; "
-         f"sys.exit(not r.__file__.startswith({site!r}))", cwd=workdir, env=env)
-    out = _run(str(venv / "bin" / "impactnet"), "bench", "--quick", "--out",
-               str(workdir / "bench"), cwd=workdir, env=env)
+    env = {**os.environ, **installed.env}
+    try:
+        _run(python, "-c", "import impactnet.training.bench.runner as r, sys; "
+             f"sys.exit(not r.__file__.startswith({site!r}))", cwd=workdir, env=env)
+        out = _run(str(installed.venv / "bin" / "impactnet"), "bench", "--quick", "--out",
+                   str(workdir / "bench"), cwd=workdir, env=env)
+    finally:
+        stack.unlink()
     assert "exact" in out
     assert (workdir / "bench" / "results.json").is_file()

@@ -93,7 +93,9 @@ def _check_manifold_answer(status: int, headers: dict, body: bytes) -> str:
         assert orjson.loads(body)["error"] == "overloaded" and headers["retry-after"]
         return "refused"
     assert status == 200, body[:300]
-    assert body.startswith(b'{"n":%d,' % MANIFOLD_ROWS) and body.endswith(b"]}")
+    # the whole answer: the batch's columns, the part contacts' columns last
+    assert body.startswith(b'{"n":%d,' % MANIFOLD_ROWS) and body.endswith(b"]}}")
+    assert len(orjson.loads(body)["contacts"]["offsets"]) == MANIFOLD_ROWS + 1
     return "served"
 
 

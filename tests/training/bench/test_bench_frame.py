@@ -129,7 +129,15 @@ def test_every_frame_stage_runs_and_the_whole_is_the_frame():
         stage()
     expected = answer_frame(Dispatcher(), bodies)
     np.testing.assert_array_equal(whole().index, expected.index)
-    assert len(expected.index) >= 20  # the stacks' contacts
+    # every container rests on the one beneath it: each such pair is among the frame's pairs
+    found_pairs = {tuple(sorted(pair)) for pair in expected.index.tolist()}
+    containers = np.flatnonzero([i.startswith("c") for i in bodies.ids])
+    cell = np.rint(bodies.position[containers, :2] / PITCH).astype(int)
+    z = bodies.position[containers, 2]
+    stacked = {tuple(sorted((int(containers[i]), int(containers[j]))))
+               for i in range(len(containers)) for j in range(len(containers))
+               if (cell[i] == cell[j]).all() and abs(z[j] - z[i] - (2.591 - 0.002)) < 1e-9}
+    assert stacked and stacked <= found_pairs
 
 
 def test_a_quick_frame_bench_writes_its_report(tmp_path, monkeypatch):

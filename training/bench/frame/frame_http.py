@@ -34,6 +34,8 @@ from impactnet.training.bench.frame import worlds
 from impactnet.training.bench.frame.speed import FramePlan, time_pair
 
 #: The request's query of a frame without options (npz frames give them in the query).
+#: The registered world's name in the in-process profile (a valid name: ``w-`` and hex digits).
+BENCH_WORLD = "w-00be7c4"
 NO_OPTIONS = {"world": None, "margin": None, "pairs": None, "mode": None, "include": None,
               "euler_convention": None}
 
@@ -76,10 +78,10 @@ def server_stages(scene_path: str, columns: dict, world, http_call, args: tuple)
         parsed = steps.parse(orjson.dumps({"bodies": world}), False, {"euler_convention": None},
                              settings, Lease(budget), True)
         registry = Worlds(1)
-        registry.add("w-bench", steps.decode(parsed, scene, settings, Lease(budget)))
-        held = registry.get("w-bench")
+        registry.add(BENCH_WORLD, steps.decode(parsed, scene, settings, Lease(budget)))
+        held = registry.get(BENCH_WORLD)
     body = _npz(columns)
-    query = {**NO_OPTIONS, "world": "w-bench" if world is not None else None}
+    query = {**NO_OPTIONS, "world": BENCH_WORLD if world is not None else None}
     parsed = steps.parse(body, True, query, settings, Lease(budget))
     bodies = steps.decode(parsed, scene, settings, Lease(budget), held, [])
     found = steps.broadphase(bodies, parsed.options, scene, settings)
