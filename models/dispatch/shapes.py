@@ -50,7 +50,10 @@ class Shape:
 
     @cached_property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(centre (3,), half extents (3,)) of the box around every part, body frame, m."""
+        """(centre (3,), half extents (3,)) of the box around every part, body frame, m (a
+        box's own, with no table built: a batch may hold many distinct box sizes)."""
+        if self.is_box:
+            return np.zeros(3), 0.5 * np.asarray(self.size, np.float64)
         table = body_table(self.parts)
         lo = (table.centre - 0.5 * table.size).min(axis=0)
         hi = (table.centre + 0.5 * table.size).max(axis=0)

@@ -28,7 +28,7 @@ from impactnet.models.compound.candidates import answer_of_poses, pose_slices
 from impactnet.models.dispatch import plan as plans
 from impactnet.models.dispatch.answers import Answers, Pieces
 from impactnet.models.dispatch.shapes import Pairs
-from impactnet.models.distance.bodies import body_gaps, hull_gaps
+from impactnet.models.distance.bodies import body_gaps, box_parts, hull_gaps
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.work import checkpoint
 
@@ -84,6 +84,7 @@ class Dispatcher:
                 _compound_slice(pieces, group, start, stop, plan.mode, caps)
             _gaps(pieces, group, ~pieces.body["colliding"][group.rows], plan.margin)
         for group in plan.apart:
+            checkpoint()  # one group a distinct pair of shapes: many of them take time
             pieces.add(group.rows, {}, ORACLE, np.zeros(0, np.int64),
                        _no_contacts(pieces.manifold))
             _gaps(pieces, group, np.ones(len(group.rows), bool), plan.margin)
@@ -214,6 +215,12 @@ def _no_contacts(manifold: bool) -> dict:
     return {name: np.zeros((0, *shape), dtype) for name, dtype, shape in wanted}
 
 
+def _gap_parts(shape):
+    """What the gap query reads of a shape: a box's closed-form part tables (no hull built, so
+    that many distinct box sizes stay cheap), else its body table."""
+    return box_parts(shape.size) if shape.is_box else body_table(shape.parts)
+
+
 def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) -> None:
     """Rows ``apart`` (k,) of a compound group, without contact: the separating direction and
     the midpoint of their closest part pair (:mod:`impactnet.models.distance.bodies`); the
@@ -222,7 +229,7 @@ def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) 
         return
     rows = group.rows[apart]
     p_a, q_a, p_b, q_b = (c[apart] for c in group.poses)
-    gaps = body_gaps(body_table(group.shape_a.parts), body_table(group.shape_b.parts), p_a,
+    gaps = body_gaps(_gap_parts(group.shape_a), _gap_parts(group.shape_b), p_a,
                      q_a, p_b, q_b)
     within = gaps.distance <= margin
     pieces.body["normal"][rows] = gaps.direction

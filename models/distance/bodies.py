@@ -20,14 +20,16 @@ centroid at the body level too and meets the centre of pressure as the gap close
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
 from impactnet.models import compiled
 from impactnet.models.distance.kernels import gap_row, scratch_slots
-from impactnet.models.distance.tables import tables_of_hulls
+from impactnet.models.distance.tables import HullTables, tables_of_hulls
 from impactnet.models.distance.tolerances import SUPPORT_REL
+from impactnet.models.geometry import box_features as bf
 from impactnet.models.geometry.rotations import quaternion_to_matrix
 
 #: Part pairs a row may hold in its bounds buffer (bodies of more parts are refused earlier:
@@ -58,12 +60,55 @@ def _boxes(hulls) -> tuple[np.ndarray, np.ndarray]:
     return centre, half
 
 
+#: A body table's hull tables and part bounds, built once per table (a scene body's table
+#: lives as long as the scene: a batch of many small bodies against one container must not
+#: rebuild the container's tables pair by pair).
+_BODY_PARTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def box_parts(size) -> tuple[HullTables, np.ndarray, np.ndarray]:
+    """A box body's part tables from its full edge lengths ``size`` (3,), metres, with no hull
+    built: its corners (in the box hull's order), its largest half extent and its corners'
+    reach, its bounds (the same arithmetic as a built hull's, so the same answers bit for bit;
+    a batch of many distinct box sizes builds one of these per size, not a hull)."""
+    corners = np.ascontiguousarray(bf.vertex_positions(np.asarray(size, np.float64)))
+    extent = 0.5 * float((corners.max(axis=0) - corners.min(axis=0)).max())
+    sizes = np.array([[extent, float(np.linalg.norm(corners, axis=1).max())]], np.float64)
+    centre, half = _boxes((_Corners(corners),))
+    return HullTables(corners, np.array([0, len(corners)], np.int64), sizes), centre, half
+
+
+@dataclass(frozen=True)
+class _Corners:
+    """The corners of a hull, all that :func:`_boxes` reads of it."""
+
+    vertices: np.ndarray
+
+
+def _body_parts(table) -> tuple[HullTables, np.ndarray, np.ndarray]:
+    """(hull tables, bounds' centres (H, 3), half extents (H, 3)) of one body's parts; a tuple
+    of them (:func:`box_parts`) is taken as it is."""
+    if isinstance(table, tuple):
+        return table
+    found = _BODY_PARTS.get(table)
+    if found is None:
+        found = (tables_of_hulls(tuple(table.hulls)), *_boxes(table.hulls))
+        if not table.transient:
+            _BODY_PARTS[table] = found
+    return found
+
+
 def pair_tables(table_a, table_b):
     """(hull tables of A's then B's parts, their bounds' centres and half extents, A's part
     count)."""
-    hulls = tuple(table_a.hulls) + tuple(table_b.hulls)
-    centre, half = _boxes(hulls)
-    return tables_of_hulls(hulls), centre, half, len(table_a.hulls)
+    (hulls_a, centre_a, half_a), (hulls_b, centre_b, half_b) = (_body_parts(table_a),
+                                                                _body_parts(table_b))
+    start = np.concatenate([hulls_a.vertex_start,
+                            hulls_b.vertex_start[1:] + hulls_a.vertex_start[-1]])
+    joined = HullTables(np.concatenate([hulls_a.vertices, hulls_b.vertices]), start,
+                        np.concatenate([hulls_a.hull_size, hulls_b.hull_size]))
+    return (joined, np.concatenate([centre_a, centre_b]), np.concatenate([half_a, half_b]),
+            hulls_a.n_hulls)
 
 
 @compiled.jit
@@ -162,9 +207,10 @@ def _rows(tables, centre, half, parts_a, t, r, limit, tie, out):
 
 def body_gaps(table_a, table_b, position_a, quaternion_a, position_b, quaternion_b,
               limit: float = np.inf) -> BodyGaps:
-    """The gaps of N poses of two bodies (body tables of :mod:`impactnet.models.compound.
-    body_table`; poses (n, 3) metres, (n, 4) unit quaternions); pairs farther apart than
-    ``limit`` (m) answer an infinite distance and no parts."""
+    """The gaps of N poses of two bodies (body tables of
+    :mod:`impactnet.models.compound.body_table`, or a box's :func:`box_parts`; poses (n, 3)
+    metres, (n, 4) unit quaternions); pairs farther apart than ``limit`` (m) answer an infinite
+    distance and no parts."""
     tables, centre, half, parts_a = pair_tables(table_a, table_b)
     if parts_a * (len(half) - parts_a) > MAX_PART_PAIRS:
         raise ValueError(f"{parts_a} x {len(half) - parts_a} part pairs: more than "

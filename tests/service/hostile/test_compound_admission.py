@@ -13,11 +13,13 @@ import numpy as np
 import pytest
 
 from impactnet.models.compound import candidates as candidates_module
+from impactnet.models.compound import hull as hull_module
 from impactnet.models.dispatch import plan as dispatch_plan
 from impactnet.models.dispatch import solve as dispatch_solve
 from tests.service.conftest import assert_error
 
 LEVEL = [1.0, 0.0, 0.0, 0.0]
+make_hull = hull_module._make
 NPZ = {"Content-Type": "application/x-npz", "Accept": "application/x-npz"}
 #: B over A: two 40 ft containers pushed 5 cm into each other side by side (237 candidate
 #: part pairs at detail 2), and stacked castings on castings (40 part contacts).
@@ -127,14 +129,23 @@ def test_distinct_pairs_that_cannot_touch_cost_no_per_pair_setup(make_client, mo
                         lambda *a, **k: counted.append(1) or candidates_module.candidate_pairs(
                             *a, **k))
     client = make_client(scene="quay_crane_detail")
-    sizes = np.random.default_rng(0).uniform(0.5, 2.0, (2_000, 3))
-    body = _npz(a_size=sizes, b_object=np.array("container40"), a_position=np.zeros(3),
-                b_position=np.array([50.0, 0, 0]), a_euler=np.zeros(3), b_euler=np.zeros(3))
-    response = client.post("/v2/contact/batch", content=body, headers=NPZ)
+
+    def far_boxes(rows: int, seed: int) -> bytes:
+        sizes = np.random.default_rng(seed).uniform(0.5, 2.0, (rows, 3))
+        return _npz(a_size=sizes, b_object=np.array("container40"), a_position=np.zeros(3),
+                    b_position=np.array([50.0, 0, 0]), a_euler=np.zeros(3),
+                    b_euler=np.zeros(3))
+
+    client.post("/v2/contact/batch", content=far_boxes(1, 1), headers=NPZ)  # the scene's hulls
+    hulls = []  # a separated row's normal comes from its closest part pair: no hull per row
+    monkeypatch.setattr(hull_module, "_make", lambda *a: hulls.append(1) or make_hull(*a))
+    response = client.post("/v2/contact/batch", content=far_boxes(2_000, 0), headers=NPZ)
     assert response.status_code == 200
     answer = np.load(io.BytesIO(response.content))
     assert not answer["colliding"].any() and len(answer["colliding"]) == 2_000
     assert counted == []  # no group was formed: the rows were culled by their spheres
+    assert hulls == []  # regression: each distinct box size once built a hull (0.6 ms)
+    assert np.isfinite(answer["normal"]).all() and (answer["normal"] != 0).any(axis=1).all()
 
 
 @pytest.mark.parametrize("accept", ["application/json", "application/x-npz"])

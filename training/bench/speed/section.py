@@ -124,7 +124,7 @@ def run(quick: bool, out, seed: int = 0, scene: str = "quay_crane", log=None) ->
     import time
 
     from impactnet.models.scenes import load_scene
-    from impactnet.training.bench.markdown import machine_line
+    from impactnet.training.bench.markdown import invoked_command, machine_line
     from impactnet.training.bench.pose_sets import scene_poses
     from impactnet.training.bench.timing import machine_info
 
@@ -135,10 +135,13 @@ def run(quick: bool, out, seed: int = 0, scene: str = "quay_crane", log=None) ->
     scene_set = scene_poses(load_scene(scene), plan.pairs, seed)
     results = {"created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
                "mode": "quick" if quick else "full", "seed": seed, "scene": scene,
+               "command": invoked_command("impactnet bench speed" + (" --quick" if quick
+                                                                     else "")),
                "machine": machine, "speed": measure(plan, scene_set, seed, log)}
     results["seconds"] = round(time.perf_counter() - started, 1)
     text = "\n".join([f"# impactnet bench speed ({results['mode']} run, {results['created']}, "
-                      f"{results['seconds']} s)", "", f"Machine: {machine_line(machine)}.", "",
+                      f"{results['seconds']} s)", "", f"Command: `{results['command']}`.", "",
+                      f"Machine: {machine_line(machine)}.", "",
                       *markdown(results["speed"])])
     out.mkdir(parents=True, exist_ok=True)
     (out / "speed.md").write_text(text, encoding="utf-8")
