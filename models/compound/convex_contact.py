@@ -6,11 +6,12 @@ the same two hulls, :func:`stacked_contacts` m rows naming their hulls in two
 either way: alone or in a batch, in one thread or several).
 
 The convex counterpart of :func:`impactnet.models.box.exact.box_box`, with its conventions
-(DESIGN.md): the separating-axis test and tie rule of :mod:`impactnet.models.compound.convex_sat`,
-the centre of pressure of :mod:`impactnet.models.compound.convex_face` for face axes, the midpoint
-of the edges' closest points for edge axes. Works in A's body frame (``t = R_A^T (p_B - p_A)``,
-``R = R_A^T R_B``, :func:`relative_poses`), so far from the origin the answer is the same as at it,
-and maps the answer to the world.
+(docs/design.md): the separating-axis test and tie rule of
+:mod:`impactnet.models.compound.convex_sat`, the centre of pressure of
+:mod:`impactnet.models.compound.convex_face` for face axes, the midpoint of the edges' closest
+points for edge axes. Works in A's body frame (``t = R_A^T (p_B - p_A)``, ``R = R_A^T R_B``,
+:func:`relative_poses`), so far from the origin the answer is the same as at it, and maps the
+answer to the world.
 
 Answers are :class:`impactnet.models.contacts.Contacts` rows, with two differences from the box
 solver's: ``feature_a``/``feature_b`` are hull feature ids (:mod:`impactnet.models.compound.hull`,

@@ -1,6 +1,6 @@
 """The face contact of two convex polyhedra, compiled: centre of pressure, depth, incident
 feature and manifold of one row (:func:`face_region`), in the reference body's frame
-(DESIGN.md's rule, as in :mod:`impactnet.models.box.pressure`).
+(docs/design.md's rule, as in :mod:`impactnet.models.box.pressure`).
 
 The reference face (outward normal ``n``, plane ``n . x = h``) belongs to the reference hull;
 the other hull is incident, its vertices given in the reference hull's frame. Depth below the

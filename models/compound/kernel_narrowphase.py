@@ -14,7 +14,7 @@ of a block of poses, written at the candidate's own row.
   ``np.matmul``).
 
 The conventions hold for every part contact (normal from A's part towards B's, the centre of
-pressure as the point, DESIGN.md); features are the box ids for box parts, hull ids for convex
+pressure as the point, docs/design.md); features are the box ids for box parts, hull ids for convex
 ones; ``axis`` is the box solver's for box pairs, -1 for the others.
 """
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Stage 4 of the compiled compound pipeline: the body-level summary of one pose's part contacts
-(DESIGN.md, :mod:`impactnet.models.compound.summary`).
+(docs/design.md, :mod:`impactnet.models.compound.summary`).
 
 * the deepest part contact (the first of equal depths) sets ``depth`` and the reference normal;
 * the cluster: the part contacts whose normals lie within

@@ -15,14 +15,14 @@ one pose):
    the box solver's row function, pairs with a convex part through the convex solver
    (:mod:`impactnet.models.compound.convex_contact`); the conventions hold for every part
    contact (normal from A's part towards B's, the centre of pressure as the point,
-   DESIGN.md). Features are int32: box ids for box parts, hull ids for convex ones.
+   docs/design.md). Features are int32: box ids for box parts, hull ids for convex ones.
 3. Filter (:mod:`~impactnet.models.compound.kernel_filter`): a part contact whose touched
    surface one body covers with its other parts is dropped (a container's roof under its own
    top castings): all of its manifold points, moved from the mid-surface back onto that body's
    part, inside other parts of that body (deeper than :data:`INSIDE_MARGIN_REL` of their size).
    A contact that reaches out of the covering parts stays.
 4. Summary (:mod:`~impactnet.models.compound.kernel_summary`): the body-level summary of
-   DESIGN.md (a cluster around the deepest contact, weighted by the integral of the depth).
+   docs/design.md (a cluster around the deepest contact, weighted by the integral of the depth).
 
 The answer is ragged: :class:`PartContacts` lists the part contacts of all poses, pose-major,
 with ``offsets`` (n + 1,) delimiting each pose's rows. Every sum is the NumPy oracle's that

@@ -1,4 +1,4 @@
-"""The body-level summary of a compound contact (DESIGN.md), compiled
+"""The body-level summary of a compound contact (docs/design.md), compiled
 (:mod:`impactnet.models.compound.kernel_summary`).
 
 Per pose with at least one part contact:

@@ -12,7 +12,7 @@ For N poses of one compound pair (body A, body B, both anywhere in the world):
    region's committee where training chose one and the classifier is sure (probability >= its
    ``sure_min``) and the members agree, else the exact part-pair solver, which also drops candidates
    that do not touch.
-4. The part contacts of all sources, pose-major, and the body summary of DESIGN.md.
+4. The part contacts of all sources, pose-major, and the body summary of docs/design.md.
 
 Each row names its predictor: ``oracle`` (fallback), ``learned`` (at least one part contact
 from a committee) or ``exact-part`` (the classifier chose the part pairs, the exact part-pair

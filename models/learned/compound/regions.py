@@ -43,7 +43,7 @@ def coarse_regions(type_code, normal, rotation_b) -> np.ndarray:
     type_code : ndarray of int, shape (k,)
         Contact types (indices into ``CONTACT_TYPES``).
     normal : ndarray, shape (k, 3)
-        Contact normals in A's body frame (unit; pointing from A into B, as DESIGN.md).
+        Contact normals in A's body frame (unit; pointing from A into B, as docs/design.md).
     rotation_b : ndarray, shape (k, 3, 3)
         B's orientation in A's frame at each contact's pose.
     """

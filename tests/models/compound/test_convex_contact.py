@@ -25,7 +25,7 @@ FCL_DEPTH_M, FCL_NORMAL_DEG = 1e-5, 0.5
 #: 4.8 mm along the solver's normal, which the test checks directly).
 FCL_AGREEMENT = 0.9
 #: Contacts compared with FCL: up to this deep (m), the depths a simulator produces. Deeper, a
-#: head passing through a 30 mm plate, the solver reports the region's depth (DESIGN.md) and
+#: head passing through a 30 mm plate, the solver reports the region's depth (docs/design.md) and
 #: EPA the translation that separates the parts: different quantities.
 SHALLOW_M = 5e-3
 SIZE_A, SIZE_B = np.array([2.0, 1.0, 0.5]), np.array([1.0, 0.7, 0.3])
@@ -137,7 +137,7 @@ def test_a_twistlock_head_against_a_box_agrees_with_fcl_convex(sides):
         gap, angle = sat.depth[k] - depth, angle_deg(normal, u)
         if abs(gap) < FCL_DEPTH_M and angle < FCL_NORMAL_DEG:
             agree += 1
-        elif gap > FCL_DEPTH_M:  # the tie rule preferred a face (DESIGN.md's worst case)
+        elif gap > FCL_DEPTH_M:  # the tie rule preferred a face (docs/design.md's worst case)
             assert angle < np.degrees(FACE_AXIS_ANGLE_TOL) + FCL_NORMAL_DEG, k
             assert gap < 2 * FACE_AXIS_ANGLE_TOL * (plate.half_extent + head.half_extent)
         compared += 1  # else EPA stopped short of the least overlap: FCL's depth is larger

@@ -241,7 +241,7 @@ def test_mujoco_epa_stops_short_of_a_separating_translation_where_depths_differ(
 
 
 def _mujoco_summary(reference: dict, weights: dict) -> tuple[float, np.ndarray, float]:
-    """DESIGN.md's summary rule on MuJoCo's part pairs {pair: (depth, normal)}: the deepest
+    """docs/design.md's summary rule on MuJoCo's part pairs {pair: (depth, normal)}: the deepest
     depth, and the normals within CLUSTER_ANGLE_DEG of the deepest one's averaged with the
     oracle's int d dA of the same pair (``weights``; MuJoCo gives no area, a pair the oracle
     lacks weighs 0); also the depth of the deepest pair pushing the other way (0: none)."""
@@ -262,7 +262,7 @@ def _mujoco_summary(reference: dict, weights: dict) -> tuple[float, np.ndarray, 
 def test_the_body_summary_agrees_with_the_rule_applied_to_mujoco_contacts(family, sides):
     """The summary's depth is MuJoCo's deepest pair's and its normal MuJoCo's cluster's (with
     the oracle's weights) on every pose where both touch. Where two opposing clusters are as
-    deep within the depth tolerance the summary may follow either side (DESIGN.md: it flips
+    deep within the depth tolerance the summary may follow either side (docs/design.md: it flips
     where their depths swap): the normal is checked against the side the oracle chose."""
     mine, theirs, ours, _ = _detail_two(family, sides)
     summary = summarise(ours)

@@ -1,4 +1,4 @@
-"""The body-level summary of compound contacts (DESIGN.md's rule)."""
+"""The body-level summary of compound contacts (docs/design.md's rule)."""
 import numpy as np
 
 from impactnet.models.compound import crane_bodies as cb
