@@ -28,7 +28,7 @@ from impactnet.models.compound.candidates import answer_of_poses, pose_slices
 from impactnet.models.dispatch import plan as plans
 from impactnet.models.dispatch.answers import Answers, Pieces
 from impactnet.models.dispatch.shapes import Pairs
-from impactnet.models.distance.bodies import body_gaps, box_parts, hull_gaps
+from impactnet.models.distance.bodies import bodies_gaps, body_gaps, box_parts, hull_gaps
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.work import checkpoint
 
@@ -87,7 +87,7 @@ class Dispatcher:
             checkpoint()  # one group a distinct pair of shapes: many of them take time
             pieces.add(group.rows, {}, ORACLE, np.zeros(0, np.int64),
                        _no_contacts(pieces.manifold))
-            _gaps(pieces, group, np.ones(len(group.rows), bool), plan.margin)
+        _apart_gaps(pieces, plan.apart, plan.margin)
         return pieces.merged()
 
     def answer(self, pairs: Pairs, mode: str = "exact", include=(), margin: float = 0.0,
@@ -227,10 +227,40 @@ def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) 
     gap as their distance where it is within ``margin``."""
     if not apart.any():
         return
-    rows = group.rows[apart]
     p_a, q_a, p_b, q_b = (c[apart] for c in group.poses)
     gaps = body_gaps(_gap_parts(group.shape_a), _gap_parts(group.shape_b), p_a,
                      q_a, p_b, q_b)
+    n = int(apart.sum())
+    _write_gaps(pieces, group.rows[apart], gaps, margin,
+                np.full(n, pieces.codes_of(group.shape_a)[0]),
+                np.full(n, pieces.codes_of(group.shape_b)[0]))
+
+
+def _apart_gaps(pieces: Pieces, groups: list, margin: float) -> None:
+    """The rows of every group whose bodies' spheres do not meet, as :func:`_gaps` answers
+    them, in one call of the gap query whatever the number of distinct pairs of shapes."""
+    if not groups:
+        return
+    shapes, slot = [], {}
+    for group in groups:
+        for shape in (group.shape_a, group.shape_b):
+            if id(shape) not in slot:
+                slot[id(shape)] = len(shapes)
+                shapes.append(shape)
+    sizes = [len(g.rows) for g in groups]
+    body_a = np.repeat([slot[id(g.shape_a)] for g in groups], sizes)
+    body_b = np.repeat([slot[id(g.shape_b)] for g in groups], sizes)
+    poses = [np.concatenate([g.poses[k] for g in groups]) for k in range(4)]
+    gaps = bodies_gaps([_gap_parts(s) for s in shapes], body_a, body_b, *poses)
+    _write_gaps(pieces, np.concatenate([g.rows for g in groups]), gaps, margin,
+                np.repeat([pieces.codes_of(g.shape_a)[0] for g in groups], sizes),
+                np.repeat([pieces.codes_of(g.shape_b)[0] for g in groups], sizes))
+
+
+def _write_gaps(pieces: Pieces, rows: np.ndarray, gaps, margin: float, first_a: np.ndarray,
+                first_b: np.ndarray) -> None:
+    """The gap answers of ``rows`` (k,) into ``pieces``; ``first_a``, ``first_b`` (k,): the
+    part code of each row's first part of A and of B."""
     within = gaps.distance <= margin
     pieces.body["normal"][rows] = gaps.direction
     pieces.body["point"][rows] = gaps.point
@@ -238,8 +268,8 @@ def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) 
     near = rows[within]
     pieces.body["closest_a"][near] = gaps.point_a[within]
     pieces.body["closest_b"][near] = gaps.point_b[within]
-    pieces.body["part_a"][near] = pieces.codes_of(group.shape_a)[gaps.part_a[within]]
-    pieces.body["part_b"][near] = pieces.codes_of(group.shape_b)[gaps.part_b[within]]
+    pieces.body["part_a"][near] = first_a[within] + gaps.part_a[within]
+    pieces.body["part_b"][near] = first_b[within] + gaps.part_b[within]
 
 
 def _box_gaps(pieces: Pieces, plan: plans.Plan) -> None:

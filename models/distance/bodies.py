@@ -98,19 +98,6 @@ def _body_parts(table) -> tuple[HullTables, np.ndarray, np.ndarray]:
     return found
 
 
-def pair_tables(table_a, table_b):
-    """(hull tables of A's then B's parts, their bounds' centres and half extents, A's part
-    count)."""
-    (hulls_a, centre_a, half_a), (hulls_b, centre_b, half_b) = (_body_parts(table_a),
-                                                                _body_parts(table_b))
-    start = np.concatenate([hulls_a.vertex_start,
-                            hulls_b.vertex_start[1:] + hulls_a.vertex_start[-1]])
-    joined = HullTables(np.concatenate([hulls_a.vertices, hulls_b.vertices]), start,
-                        np.concatenate([hulls_a.hull_size, hulls_b.hull_size]))
-    return (joined, np.concatenate([centre_a, centre_b]), np.concatenate([half_a, half_b]),
-            hulls_a.n_hulls)
-
-
 @compiled.jit
 def _lower_bound(centre, half, i, j, t, r):
     """A lower bound of the gap between A's part i and B's part j: the distance between A's
@@ -128,14 +115,14 @@ def _lower_bound(centre, half, i, j, t, r):
 
 
 @compiled.jit
-def _row(tables, centre, half, parts_a, t, r, limit, tie, work, bounds, order_buf, one, out,
-         row):
-    """One pose (module docstring): the gap written at ``row`` of ``out`` (A's frame)."""
+def _row(tables, centre, half, span, t, r, limit, tie, work, bounds, order_buf, one, out, row):
+    """One pose (module docstring): the gap written at ``row`` of ``out`` (A's frame); A's
+    parts are hulls ``span[0]:span[1]`` of ``tables``, B's ``span[2]:span[3]``."""
     vertices, start, size = tables
     n_hulls = size.shape[0]
     k = 0
-    for i in range(parts_a):
-        for j in range(parts_a, n_hulls):
+    for i in range(span[0], span[1]):
+        for j in range(span[2], span[3]):
             bounds[k] = _lower_bound(centre, half, i, j, t, r)
             order_buf[k] = i * n_hulls + j
             k += 1
@@ -151,18 +138,18 @@ def _row(tables, centre, half, parts_a, t, r, limit, tie, work, bounds, order_bu
         gap_row(vertices, start, size, i, j, t, r, work, 0, *one)
         if one[0][0] < best:
             best = one[0][0]
-            distance[row], part_a[row], part_b[row] = best, i, j - parts_a
+            distance[row], part_a[row], part_b[row] = best, i - span[0], j - span[2]
             for c in range(3):
                 point_a[row, c], point_b[row, c] = one[1][0, c], one[2][0, c]
                 point[row, c], direction[row, c] = one[3][0, c], one[4][0, c]
             if best <= 0.0:
                 break
     if 0.0 < best < limit:
-        _ties(tables, parts_a, t, r, tie, work, bounds, order_buf, order, k, one, out, row)
+        _ties(tables, span, t, r, tie, work, bounds, order_buf, order, k, one, out, row)
 
 
 @compiled.jit
-def _ties(tables, parts_a, t, r, tie, work, bounds, order_buf, order, k, one, out, row):
+def _ties(tables, span, t, r, tie, work, bounds, order_buf, order, k, one, out, row):
     """The closest region of a row whose closest part pair is not alone: every other part
     pair within ``tie`` (m) of the smallest gap adds its closest regions' centroids, and the
     row's closest points are their mean (a level spreader over a container: its four heads)."""
@@ -178,7 +165,7 @@ def _ties(tables, parts_a, t, r, tie, work, bounds, order_buf, order, k, one, ou
         if bounds[order[m]] > best + tie:
             break
         i, j = pair // n_hulls, pair % n_hulls
-        if i == part_a[row] and j - parts_a == part_b[row]:
+        if i - span[0] == part_a[row] and j - span[2] == part_b[row]:
             continue
         gap_row(vertices, start, size, i, j, t, r, work, 0, *one)
         if one[0][0] <= best + tie:
@@ -194,14 +181,18 @@ def _ties(tables, parts_a, t, r, tie, work, bounds, order_buf, order, k, one, ou
 
 
 @compiled.jit
-def _rows(tables, centre, half, parts_a, t, r, limit, tie, out):
-    """:func:`_row` over every pose (serial)."""
+def _rows(tables, centre, half, spans, t, r, limit, ties, out):
+    """:func:`_row` over every pose (serial); row k's bodies are ``spans[k]`` (a single span:
+    every row's), its tie slack ``ties[k]`` (m)."""
     work = np.empty(scratch_slots(int(np.max(np.diff(tables[1])))))
-    pairs = parts_a * (tables[2].shape[0] - parts_a)
+    pairs = 1
+    for k in range(spans.shape[0]):
+        pairs = max(pairs, (spans[k, 1] - spans[k, 0]) * (spans[k, 3] - spans[k, 2]))
     bounds, order_buf = np.empty(pairs), np.empty(pairs, np.int64)
     one = (np.empty(1), np.empty((1, 3)), np.empty((1, 3)), np.empty((1, 3)), np.empty((1, 3)))
     for row in range(t.shape[0]):
-        _row(tables, centre, half, parts_a, t[row], r[row], limit, tie, work, bounds,
+        k = row if spans.shape[0] > 1 else 0
+        _row(tables, centre, half, spans[k], t[row], r[row], limit, ties[k], work, bounds,
              order_buf, one, out, row)
 
 
@@ -211,18 +202,54 @@ def body_gaps(table_a, table_b, position_a, quaternion_a, position_b, quaternion
     :mod:`impactnet.models.compound.body_table`, or a box's :func:`box_parts`; poses (n, 3)
     metres, (n, 4) unit quaternions); pairs farther apart than ``limit`` (m) answer an infinite
     distance and no parts."""
-    tables, centre, half, parts_a = pair_tables(table_a, table_b)
-    if parts_a * (len(half) - parts_a) > MAX_PART_PAIRS:
-        raise ValueError(f"{parts_a} x {len(half) - parts_a} part pairs: more than "
-                         f"{MAX_PART_PAIRS}")
+    first = np.zeros(1, np.int64)
+    return bodies_gaps([table_a, table_b], first, first + 1, position_a, quaternion_a,
+                       position_b, quaternion_b, limit)
+
+
+def _joined(parts: list) -> tuple:
+    """(flat hull tables, bounds' centres, half extents, each body's first hull (B + 1,)) of
+    several bodies' part tables, hull after hull."""
+    counts = [p[0].n_hulls for p in parts]
+    first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    corners = np.concatenate([[0], np.cumsum([int(p[0].vertex_start[-1]) for p in parts])])
+    vertex_start = np.concatenate([p[0].vertex_start[:-1] + corners[k]
+                                   for k, p in enumerate(parts)] + [corners[-1:]])
+    flat = (np.ascontiguousarray(np.concatenate([p[0].vertices for p in parts]), np.float64),
+            np.ascontiguousarray(vertex_start, np.int64),
+            np.ascontiguousarray(np.concatenate([p[0].hull_size for p in parts]), np.float64))
+    centre = np.ascontiguousarray(np.concatenate([p[1] for p in parts]), np.float64)
+    half = np.ascontiguousarray(np.concatenate([p[2] for p in parts]), np.float64)
+    return flat, centre, half, first
+
+
+def bodies_gaps(bodies, body_a, body_b, position_a, quaternion_a, position_b, quaternion_b,
+                limit: float = np.inf) -> BodyGaps:
+    """The gaps of N poses, row k between ``bodies[body_a[k]]`` and ``bodies[body_b[k]]``
+    (body tables or :func:`box_parts`; ``body_a``, ``body_b``: (n,) or (1,) indices) in one
+    compiled call whatever the number of distinct bodies, so that a batch of many box sizes
+    against one container costs its rows, not a call per size. Answers as :func:`body_gaps`;
+    each row's tie slack is its own two bodies' (their largest part's half extent)."""
+    parts = [_body_parts(b) for b in bodies]
+    flat, centre, half, first = _joined(parts)
+    body_a = np.asarray(body_a, np.int64).reshape(-1)
+    body_b = np.asarray(body_b, np.int64).reshape(-1)
+    spans = np.ascontiguousarray(np.stack(np.broadcast_arrays(
+        first[body_a], first[body_a + 1], first[body_b], first[body_b + 1]), axis=1))
+    widest = int(((spans[:, 1] - spans[:, 0]) * (spans[:, 3] - spans[:, 2])).max())
+    if widest > MAX_PART_PAIRS:
+        raise ValueError(f"{widest} part pairs: more than {MAX_PART_PAIRS}")
+    largest = np.array([float(p[2].max()) for p in parts])
+    ties = np.ascontiguousarray(SUPPORT_REL * np.maximum(*np.broadcast_arrays(
+        largest[body_a], largest[body_b])), np.float64)
     rot_a, t, r = _relative(position_a, quaternion_a, position_b, quaternion_b)
     n = len(t)
     out = (np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)),
            np.empty((n, 3)), np.empty(n, np.int64), np.empty(n, np.int64))
-    flat = (tables.vertices, tables.vertex_start, tables.hull_size)
     for lo, hi in compiled.chunks(n):
-        _rows(flat, centre, half, parts_a, t[lo:hi], r[lo:hi], float(limit),
-              SUPPORT_REL * float(half.max()), tuple(o[lo:hi] for o in out))
+        rows = slice(lo, hi) if len(spans) > 1 else slice(0, 1)
+        _rows(flat, centre, half, spans[rows], t[lo:hi], r[lo:hi], float(limit), ties[rows],
+              tuple(o[lo:hi] for o in out))
     return _world(position_a, rot_a, *out)
 
 
