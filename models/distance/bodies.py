@@ -74,15 +74,9 @@ def box_parts(size) -> tuple[HullTables, np.ndarray, np.ndarray]:
     corners = np.ascontiguousarray(bf.vertex_positions(np.asarray(size, np.float64)))
     extent = 0.5 * float((corners.max(axis=0) - corners.min(axis=0)).max())
     sizes = np.array([[extent, float(np.linalg.norm(corners, axis=1).max())]], np.float64)
-    centre, half = _boxes((_Corners(corners),))
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    centre, half = (0.5 * (lo + hi)).reshape(1, 3), (0.5 * (hi - lo)).reshape(1, 3)
     return HullTables(corners, np.array([0, len(corners)], np.int64), sizes), centre, half
-
-
-@dataclass(frozen=True)
-class _Corners:
-    """The corners of a hull, all that :func:`_boxes` reads of it."""
-
-    vertices: np.ndarray
 
 
 def _body_parts(table) -> tuple[HullTables, np.ndarray, np.ndarray]:

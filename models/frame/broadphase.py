@@ -92,6 +92,16 @@ class TooManyBodyPairs(ValueError):
 
 
 @compiled.jit
+def _meets(k, m, kind, affinity, box_lo, box_hi):
+    """Whether bodies k and m may touch (their filter bits) and their bounds overlap."""
+    if (kind[k] & affinity[m]) == 0 and (kind[m] & affinity[k]) == 0:
+        return False
+    return not (box_lo[m, 0] > box_hi[k, 0] or box_lo[k, 0] > box_hi[m, 0]
+                or box_lo[m, 1] > box_hi[k, 1] or box_lo[k, 1] > box_hi[m, 1]
+                or box_lo[m, 2] > box_hi[k, 2] or box_lo[k, 2] > box_hi[m, 2])
+
+
+@compiled.jit
 def _grown(out, count):
     """``out`` (m, 2) with twice the room, its first ``count`` rows kept."""
     bigger = np.empty((2 * out.shape[0], 2), np.int64)
@@ -142,11 +152,7 @@ def sweep(lo, hi, order, axis, types, affinities, static, limit, room):
         for m in range(k + 1, n):
             if start[m] > end[k]:
                 break
-            if (kind[k] & affinity[m]) == 0 and (kind[m] & affinity[k]) == 0:
-                continue
-            if (box_lo[m, 0] > box_hi[k, 0] or box_lo[k, 0] > box_hi[m, 0]
-                    or box_lo[m, 1] > box_hi[k, 1] or box_lo[k, 1] > box_hi[m, 1]
-                    or box_lo[m, 2] > box_hi[k, 2] or box_lo[k, 2] > box_hi[m, 2]):
+            if not _meets(k, m, kind, affinity, box_lo, box_hi):
                 continue
             if count == out.shape[0]:
                 out = _grown(out, count)
@@ -159,11 +165,7 @@ def sweep(lo, hi, order, axis, types, affinities, static, limit, room):
             m = moving[q]
             if start[m] > end[k]:
                 break
-            if (kind[k] & affinity[m]) == 0 and (kind[m] & affinity[k]) == 0:
-                continue
-            if (box_lo[m, 0] > box_hi[k, 0] or box_lo[k, 0] > box_hi[m, 0]
-                    or box_lo[m, 1] > box_hi[k, 1] or box_lo[k, 1] > box_hi[m, 1]
-                    or box_lo[m, 2] > box_hi[k, 2] or box_lo[k, 2] > box_hi[m, 2]):
+            if not _meets(k, m, kind, affinity, box_lo, box_hi):
                 continue
             if count == out.shape[0]:
                 out = _grown(out, count)
