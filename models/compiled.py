@@ -200,9 +200,8 @@ def on_warm_up(function: Callable[[], None]) -> Callable[[], None]:
     return function
 
 
-def warm_up() -> int:
-    """Compile or load every registered kernel (importing the modules that hold them);
-    returns how many warm-ups ran."""
+def _import_kernels() -> None:
+    """Import every module of kernels, so that their warm-ups register."""
     import importlib
 
     for module in KERNEL_MODULES:
@@ -211,6 +210,29 @@ def warm_up() -> int:
         except ModuleNotFoundError as exc:  # a wing without kernels yet
             if exc.name != module:
                 raise
+
+
+def _warm_one(index: int) -> float:
+    """Warm-up ``index`` in this process (a compile worker of :func:`warm_up`); its seconds."""
+    _import_kernels()
+    started = time.perf_counter()
+    _WARM_UPS[index]()
+    return time.perf_counter() - started
+
+
+def warm_up(processes: int = 1) -> int:
+    """Compile or load every registered kernel (importing the modules that hold them);
+    returns how many warm-ups ran. With ``processes`` > 1 the warm-ups first compile into the
+    cache in that many fresh processes (numba compiles in one thread; a cold cache of every
+    kernel takes minutes), then this process loads them."""
+    _import_kernels()
+    if processes > 1 and len(_WARM_UPS) > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        context = multiprocessing.get_context("spawn")  # no numba state copied by a fork
+        with ProcessPoolExecutor(min(processes, len(_WARM_UPS)), mp_context=context) as pool:
+            list(pool.map(_warm_one, range(len(_WARM_UPS))))
     for function in _WARM_UPS:
         function()
     return len(_WARM_UPS)
@@ -229,7 +251,7 @@ def main() -> int:
     from impactnet.models import compiled  # the module the kernels register with (not __main__)
 
     started = time.perf_counter()
-    count = compiled.warm_up()
+    count = compiled.warm_up(processes=available_cores())
     folder = os.environ.get("NUMBA_CACHE_DIR") or compiled.cache_folder() or "none (in memory)"
     print(f"impactnet kernels: {count} warm-ups in {time.perf_counter() - started:.1f} s; "
           f"cache: {folder}")

@@ -86,6 +86,12 @@ class Settings(BaseSettings):
     # Compound bodies: most candidate part pairs of one request (413 beyond it, before any
     # contact is solved): 10,000 spreader landings have ~750,000.
     max_candidates_per_request: int = Field(1_000_000, ge=1)
+    # Compound bodies: most distinct pairs of bodies (scene objects, box sizes, inline bodies)
+    # among one request's rows that may touch (413 beyond it, before any contact is solved).
+    # Each costs a setup of its bodies' tables (2-5 ms for a box against a container; rows
+    # of the same pair share it: 256 of them ~1 s on one core); the shipped scenes have at most
+    # 5 objects, 25 pairs, so a request of scene objects always passes.
+    max_shape_pairs_per_request: int = Field(256, ge=1)
     # Wall-clock seconds a request may compute, from the arrival of its whole body to its
     # answer (queueing for a worker included). Past it the work stops at its next chunk
     # (within a second) and the answer is 504 `deadline_exceeded`, which a front must never

@@ -11,7 +11,7 @@ become the API's errors: 413 naming the limit, 422 for a strict learned mode wit
 from __future__ import annotations
 
 from impactnet.models.compound.candidates import TooManyCandidates
-from impactnet.models.dispatch import Caps, TooManyContacts
+from impactnet.models.dispatch import Caps, TooManyContacts, TooManyShapePairs
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.service.errors import LimitRefused, UnsupportedPair
 from impactnet.service.limits.budget import Lease, MemoryBudget
@@ -21,7 +21,8 @@ from impactnet.service.limits.lanes import Work
 def caps_of(settings) -> Caps:
     """The dispatcher's caps (the settings of the same meaning)."""
     return Caps(settings.max_candidates_per_pose, settings.max_candidates_per_request,
-                settings.max_part_contacts_per_pose, settings.max_part_contacts_per_batch)
+                settings.max_part_contacts_per_pose, settings.max_part_contacts_per_batch,
+                settings.max_shape_pairs_per_request)
 
 
 def _refused(exc: Exception, mode: str, batch: bool) -> Exception:
@@ -34,6 +35,11 @@ def _refused(exc: Exception, mode: str, batch: bool) -> Exception:
         return LimitRefused("too_many_candidates", "pairs", f"the request has more than "
                             f"{exc.cap} candidate part pairs (max_candidates_per_request); "
                             "send fewer rows per request", "max_candidates_per_request")
+    if isinstance(exc, TooManyShapePairs):
+        return LimitRefused("too_many_shape_pairs", "pairs", f"the compound rows that may "
+                            f"touch name {exc.count} distinct pairs of bodies, more than "
+                            f"max_shape_pairs_per_request ({exc.cap}); send fewer distinct "
+                            "bodies per request", "max_shape_pairs_per_request")
     if isinstance(exc, TooManyContacts):
         if exc.row is not None:
             return LimitRefused("too_many_part_contacts", "pairs", f"row {exc.row} has "
@@ -46,11 +52,14 @@ def _refused(exc: Exception, mode: str, batch: bool) -> Exception:
     return UnsupportedPair(mode, exc.rows, exc.pairs, batch)
 
 
-_REFUSALS = (TooManyCandidates, TooManyContacts, UnsupportedPairError)
+_REFUSALS = (TooManyCandidates, TooManyContacts, TooManyShapePairs, UnsupportedPairError)
 
 
-def _plan(dispatcher, pairs, mode, include, margin):
-    return dispatcher.plan(pairs, mode, include, margin)
+def _plan(dispatcher, pairs, mode, include, margin, caps: Caps):
+    try:
+        return dispatcher.plan(pairs, mode, include, margin, caps)
+    except _REFUSALS as exc:
+        raise _refused(exc, mode, len(pairs) > 1) from None
 
 
 def _count(dispatcher, plan, caps: Caps, lease: Lease):
@@ -72,7 +81,8 @@ def _solve(dispatcher, plan, caps: Caps):
 
 def _inline(dispatcher, pairs, mode, include, margin, caps, lease):
     """The three steps at once (a single box pair)."""
-    plan = _count(dispatcher, _plan(dispatcher, pairs, mode, include, margin), caps, lease)
+    plan = _count(dispatcher, _plan(dispatcher, pairs, mode, include, margin, caps), caps,
+                  lease)
     return _solve(dispatcher, plan, caps)
 
 
@@ -90,8 +100,8 @@ async def solve(work: Work, state, pairs, mode: str, include=(), margin: float =
     settings = work.runtime.settings
     caps, dispatcher = caps_of(settings), state.dispatcher
     lease = lease if lease is not None else Lease(work.runtime.budget)
-    if len(pairs) == 1 and all(s.is_box for s in pairs.shapes):
+    if len(pairs) == 1 and pairs.table.is_box.all():
         return _inline(dispatcher, pairs, mode, include, margin, caps, lease)
-    plan = await work.run(len(pairs), _plan, dispatcher, pairs, mode, include, margin)
+    plan = await work.run(len(pairs), _plan, dispatcher, pairs, mode, include, margin, caps)
     plan = await work.run(plan.work, _count, dispatcher, plan, caps, lease)
     return await work.run(plan.work, _solve, dispatcher, plan, caps)

@@ -45,6 +45,8 @@ BODY_COLUMNS = (("colliding", np.bool_, (), False), ("point", np.float64, (3,), 
                 ("part_b", np.int32, (), -1), ("cluster_size", np.int64, (), 0),
                 ("confidence", np.float64, (), 1.0), ("distance", np.float64, (), np.inf),
                 ("closest_a", np.float64, (3,), np.nan), ("closest_b", np.float64, (3,), np.nan))
+#: The key of every box shape's part code (:meth:`Pieces.codes_of`).
+BOX_KEY = "box"
 #: Contact types by code.
 CONTACT_NAMES = np.asarray(CONTACT_TYPES)
 
@@ -101,8 +103,10 @@ class Pieces:
         self.contacts = 0
 
     def codes_of(self, shape) -> np.ndarray:
-        """The codes of a body shape's part names (each shape's names added once)."""
-        key = id(shape)
+        """The codes of a body shape's part names (each shape's names added once; every box
+        shares one code, its part ``box``: a box's features are named alike whatever its size,
+        so a batch of many box sizes adds one name, not one per size)."""
+        key = BOX_KEY if shape.is_box else id(shape)
         if key not in self._codes:
             start = len(self.part_names)
             self.part_names += list(shape.part_names)

@@ -4,8 +4,9 @@ Rows of N pairs split three ways:
 
 * **box rows** (two boxes): one batched call of the box chain, whatever their sizes; their work
   is one box-pair solve each;
-* **rows that cannot touch**: their bodies' bounding spheres do not meet (grown by the margin);
-  answered "no contact" with no per-pair setup;
+* **rows that cannot touch**: their bodies' bounding spheres do not meet; answered "no
+  contact" with no per-pair setup (one :class:`Apart` of columns, whatever their shapes), their
+  gap and separating direction in one call of the gap query;
 * **compound rows** (a body made of parts): grouped by their pair of shapes; the broadphase
   counts each group's candidate part pairs under the caps (:class:`Caps`), and their work is
   the candidates weighted by their hulls' sizes (:func:`~impactnet.models.compound.candidates.
@@ -50,6 +51,17 @@ class Caps:
     candidates_per_request: int | None = None  # candidate part pairs of all poses
     contacts_per_pose: int | None = None  # part contacts of one pose
     contacts_per_request: int | None = None  # part contacts of all poses
+    shape_pairs_per_request: int | None = None  # distinct pairs of shapes of compound rows
+    # that may touch: each costs a setup (its bodies' tables, ~2-5 ms for a body of one part)
+
+
+class TooManyShapePairs(ValueError):
+    """The compound rows that may touch name more than ``cap`` distinct pairs of shapes
+    (``count``): refused by the plan, before any group is formed."""
+
+    def __init__(self, count: int, cap: int) -> None:
+        self.count, self.cap = count, cap
+        super().__init__(f"{count} distinct pairs of shapes may touch: more than {cap}")
 
 
 class TooManyContacts(ValueError):
@@ -75,6 +87,27 @@ class Group:
 
 
 @dataclass
+class Apart:
+    """The compound rows whose bodies cannot touch, as columns (whatever their shapes: a batch
+    of many distinct box sizes forms no group per size)."""
+
+    rows: np.ndarray  # (k,) int64 request rows
+    shape_a: np.ndarray  # (k,) int64 index into the pairs' shapes
+    shape_b: np.ndarray
+    poses: tuple  # position_a (k, 3), quaternion_a (k, 4), position_b, quaternion_b
+
+    @classmethod
+    def of(cls, pairs: Pairs, rows: np.ndarray) -> Apart:
+        return cls(rows, pairs.column("shape_a")[rows].astype(np.int64),
+                   pairs.column("shape_b")[rows].astype(np.int64), pairs.poses(rows))
+
+    def part_pairs(self, pairs: Pairs) -> int:
+        """The part pairs of every row (the gap query's bound: its work)."""
+        parts = pairs.table.parts
+        return int((parts[self.shape_a] * parts[self.shape_b]).sum())
+
+
+@dataclass
 class Plan:
     """A request admitted by its count (module docstring)."""
 
@@ -82,7 +115,7 @@ class Plan:
     mode: str
     box_rows: np.ndarray  # (b,) rows of two boxes
     groups: list[Group] = field(default_factory=list)  # compound rows that may touch
-    apart: list[Group] = field(default_factory=list)  # compound rows that cannot touch
+    apart: Apart | None = None  # compound rows that cannot touch
     include: tuple = ()  # "manifold"
     margin: float = 0.0  # metres: pairs apart by less get their distance and closest points
     candidates: int = 0  # candidate part pairs of all groups
@@ -101,14 +134,10 @@ class Plan:
 def _spheres(pairs: Pairs, side: str, rows: np.ndarray):
     """World centres (k, 3) and radii (k,) of one side's bodies on ``rows``."""
     index = pairs.column(f"shape_{side}")[rows]
-    local = np.zeros((len(rows), 3))
-    radius = np.zeros(len(rows))
-    for k in np.unique(index):
-        at = index == k
-        local[at], radius[at] = pairs.shapes[int(k)].sphere
+    centre, radius = pairs.table.spheres
     q = pairs.column(f"quaternion_{side}")[rows]
-    moved = np.einsum("nij,nj->ni", quaternion_to_matrix(q), local)
-    return pairs.column(f"position_{side}")[rows] + moved, radius
+    moved = np.einsum("nij,nj->ni", quaternion_to_matrix(q), centre[index])
+    return pairs.column(f"position_{side}")[rows] + moved, radius[index]
 
 
 def reachable(pairs: Pairs, rows: np.ndarray, margin: float = 0.0) -> np.ndarray:
@@ -118,11 +147,14 @@ def reachable(pairs: Pairs, rows: np.ndarray, margin: float = 0.0) -> np.ndarray
     return np.linalg.norm(centre_b - centre_a, axis=1) <= reach
 
 
-def _split(pairs: Pairs, rows: np.ndarray, chains) -> list[Group]:
-    """The compound ``rows`` grouped by their pair of shapes."""
+def _split(pairs: Pairs, rows: np.ndarray, chains, cap: int | None = None) -> list[Group]:
+    """The compound ``rows`` grouped by their pair of shapes (raises
+    :class:`TooManyShapePairs` past ``cap`` distinct pairs, before any group is formed)."""
     key = (pairs.column("shape_a")[rows].astype(np.int64) * len(pairs.shapes)
            + pairs.column("shape_b")[rows])
     unique, inverse = np.unique(key, return_inverse=True)
+    if cap is not None and len(unique) > cap:
+        raise TooManyShapePairs(len(unique), cap)
     order = np.argsort(inverse, kind="stable")
     bounds = np.searchsorted(inverse[order], np.arange(len(unique) + 1))
     groups = []
@@ -134,18 +166,20 @@ def _split(pairs: Pairs, rows: np.ndarray, chains) -> list[Group]:
 
 
 def plan(pairs: Pairs, mode: str, chains=lambda a, b: None, include=(),
-         margin: float = 0.0) -> Plan:
+         margin: float = 0.0, caps: Caps = Caps()) -> Plan:
     """The rows split (module docstring), compound rows grouped but not yet counted
-    (:func:`count`); ``chains(shape_a, shape_b)`` names a compound pair's learned chain."""
-    boxes = np.array([s.is_box for s in pairs.shapes], bool)
+    (:func:`count`); ``chains(shape_a, shape_b)`` names a compound pair's learned chain;
+    ``caps.shape_pairs_per_request`` bounds the groups (:class:`TooManyShapePairs`)."""
+    boxes = pairs.table.is_box
     both = boxes[pairs.column("shape_a")] & boxes[pairs.column("shape_b")]
     box_rows = np.flatnonzero(both)
     rows = np.flatnonzero(~both)
     near = reachable(pairs, rows) if len(rows) else np.zeros(0, bool)
-    groups = _split(pairs, rows[near], chains) if near.any() else []
-    apart = _split(pairs, rows[~near], lambda a, b: None) if (~near).any() else []
+    groups = (_split(pairs, rows[near], chains, caps.shape_pairs_per_request)
+              if near.any() else [])
+    apart = Apart.of(pairs, rows[~near]) if (~near).any() else None
     part_pairs = sum(len(g.rows) * len(g.shape_a.parts) * len(g.shape_b.parts)
-                     for g in groups + apart)
+                     for g in groups) + (apart.part_pairs(pairs) if apart else 0)
     return Plan(pairs, mode, box_rows, groups, apart, tuple(include), float(margin),
                 work=len(box_rows) + part_pairs / PART_PAIRS_PER_UNIT)
 
@@ -170,8 +204,7 @@ def count(plan_: Plan, caps: Caps) -> Plan:
                                     caps.candidates_per_request) from None
         total += group.candidates.total
         work += group.candidates.work + len(group.rows)
-    for group in plan_.apart:  # their closest part pairs, by branch and bound
-        work += len(group.rows) * len(group.shape_a.parts) * len(group.shape_b.parts) / \
-            PART_PAIRS_PER_UNIT
+    if plan_.apart is not None:  # their closest part pairs, by branch and bound
+        work += plan_.apart.part_pairs(plan_.pairs) / PART_PAIRS_PER_UNIT
     plan_.candidates, plan_.work = total, work
     return plan_

@@ -8,6 +8,7 @@ ids (``face 3``, ``edge 17``, ``vertex 40``: faces first, then edges, then verti
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -80,12 +81,69 @@ class Shape:
         return f"vertex {feature - faces - edges}", "vertex"
 
 
+class Shapes(Sequence):
+    """The shapes of a batch: named shapes (a scene's objects, inline bodies), then k boxes
+    given by their sizes (k, 3), m, each made a :class:`Shape` only when asked for (a batch of
+    100,000 distinct box sizes makes no Python object a size: :class:`ShapeTable` reads the
+    sizes as a column)."""
+
+    def __init__(self, named: tuple[Shape, ...], box_sizes: np.ndarray | None = None) -> None:
+        self.named = tuple(named)
+        self.box_sizes = np.zeros((0, 3)) if box_sizes is None else \
+            np.asarray(box_sizes, np.float64).reshape(-1, 3)
+        self._made: dict[int, Shape] = {}
+
+    def __len__(self) -> int:
+        return len(self.named) + len(self.box_sizes)
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return tuple(self[i] for i in range(*k.indices(len(self))))
+        k = range(len(self))[k]  # negative indices, IndexError
+        if k < len(self.named):
+            return self.named[k]
+        if k not in self._made:
+            self._made[k] = Shape.box(self.box_sizes[k - len(self.named)])
+        return self._made[k]
+
+
+class ShapeTable:
+    """What the dispatcher reads of every shape of a :class:`Pairs`, as columns (s shapes), so
+    that a batch of many distinct box sizes is planned with array operations, not shape by
+    shape. The bounding spheres are computed when first read (a compound shape's builds its
+    body table: never on the event loop, where a single pair is only asked whether it is two
+    boxes)."""
+
+    def __init__(self, shapes) -> None:
+        self.shapes = shapes  # a tuple, or Shapes (its box sizes read as a column)
+        named = tuple(shapes.named) if isinstance(shapes, Shapes) else tuple(shapes)
+        sizes = shapes.box_sizes if isinstance(shapes, Shapes) else np.zeros((0, 3))
+        box = np.fromiter((s.is_box for s in named), bool, len(named))
+        size = np.ones((len(named), 3))
+        for k in np.flatnonzero(box).tolist():
+            size[k] = named[k].parts[0].size
+        parts = np.fromiter((len(s.parts) for s in named), np.int64, len(named))
+        self.is_box = np.concatenate([box, np.ones(len(sizes), bool)])  # (s,) bool: a box
+        self.size = np.concatenate([size, sizes])  # (s, 3) a box's edge lengths, m; else 1
+        self.parts = np.concatenate([parts, np.ones(len(sizes), np.int64)])  # (s,) parts
+
+    @cached_property
+    def spheres(self) -> tuple[np.ndarray, np.ndarray]:
+        """(centres (s, 3) in the body frames, radii (s,)), m: a box's from its size (no table
+        built), another shape's from its :attr:`Shape.sphere`."""
+        centre = np.zeros((len(self.is_box), 3))
+        radius = np.linalg.norm(0.5 * self.size, axis=1)
+        for k in np.flatnonzero(~self.is_box).tolist():
+            centre[k], radius[k] = self.shapes[k].sphere
+        return centre, radius
+
+
 @dataclass(frozen=True)
 class Pairs:
     """N poses of pairs of shapes (world frame, metres, unit quaternions [w, x, y, z]); every
     column has n rows or one (broadcast)."""
 
-    shapes: tuple[Shape, ...]  # the shapes the rows name
+    shapes: Sequence[Shape]  # the shapes the rows name (a tuple, or Shapes)
     shape_a: np.ndarray  # (n,) int64 index into shapes
     shape_b: np.ndarray
     position_a: np.ndarray  # (n, 3)
@@ -96,6 +154,11 @@ class Pairs:
     def __len__(self) -> int:
         return max(len(c) for c in (self.shape_a, self.shape_b, self.position_a,
                                     self.quaternion_a, self.position_b, self.quaternion_b))
+
+    @cached_property
+    def table(self) -> ShapeTable:
+        """The columns of :attr:`shapes` (:class:`ShapeTable`), built once."""
+        return ShapeTable(self.shapes)
 
     def column(self, name: str) -> np.ndarray:
         """Column ``name`` broadcast to n rows."""

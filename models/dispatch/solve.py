@@ -28,7 +28,7 @@ from impactnet.models.compound.candidates import answer_of_poses, pose_slices
 from impactnet.models.dispatch import plan as plans
 from impactnet.models.dispatch.answers import Answers, Pieces
 from impactnet.models.dispatch.shapes import Pairs
-from impactnet.models.distance.bodies import bodies_gaps, body_gaps, box_parts, hull_gaps
+from impactnet.models.distance.bodies import bodies_gaps, body_gaps, box_bodies, box_parts
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.work import checkpoint
 
@@ -61,10 +61,10 @@ class Dispatcher:
         return lambda a, b: (self.compound_chains.get(f"{a.name}/{b.name}")
                              if a.name and b.name else None)
 
-    def plan(self, pairs: Pairs, mode: str = "exact", include=(),
-             margin: float = 0.0) -> plans.Plan:
+    def plan(self, pairs: Pairs, mode: str = "exact", include=(), margin: float = 0.0,
+             caps: plans.Caps = plans.Caps()) -> plans.Plan:
         """The split of the rows (cheap: :func:`impactnet.models.dispatch.plan.plan`)."""
-        return plans.plan(pairs, mode, self._chains(mode), include, margin)
+        return plans.plan(pairs, mode, self._chains(mode), include, margin, caps)
 
     def count(self, plan: plans.Plan, caps: plans.Caps = plans.Caps()) -> plans.Plan:
         """The broadphase's count under ``caps`` (:func:`impactnet.models.dispatch.plan.
@@ -83,17 +83,18 @@ class Dispatcher:
                 checkpoint()
                 _compound_slice(pieces, group, start, stop, plan.mode, caps)
             _gaps(pieces, group, ~pieces.body["colliding"][group.rows], plan.margin)
-        for group in plan.apart:
-            checkpoint()  # one group a distinct pair of shapes: many of them take time
-            pieces.add(group.rows, {}, ORACLE, np.zeros(0, np.int64),
+        if plan.apart is not None:  # one set of columns, whatever their shapes
+            checkpoint()
+            pieces.add(plan.apart.rows, {}, ORACLE, np.zeros(0, np.int64),
                        _no_contacts(pieces.manifold))
-        _apart_gaps(pieces, plan.apart, plan.margin)
+            _apart_gaps(pieces, plan.pairs, plan.apart, plan.margin)
         return pieces.merged()
 
     def answer(self, pairs: Pairs, mode: str = "exact", include=(), margin: float = 0.0,
                caps: plans.Caps = plans.Caps()) -> Answers:
         """Plan, count and solve in one call (a library caller)."""
-        return self.solve(self.count(self.plan(pairs, mode, include, margin), caps), caps)
+        return self.solve(self.count(self.plan(pairs, mode, include, margin, caps), caps),
+                          caps)
 
 
 def _check_contacts(counts: np.ndarray, rows: np.ndarray, total: int,
@@ -122,17 +123,21 @@ def _contact_columns(c, rows, code_a, code_b, manifold: bool) -> dict:
     return out
 
 
-def _box_codes(pieces: Pieces, shapes) -> np.ndarray:
-    """The part code of each box shape (a box is a body of one part; -1 for the others)."""
-    return np.array([pieces.codes_of(s)[0] if s.is_box else -1 for s in shapes], np.int32)
+def _box_codes(pieces: Pieces, pairs) -> np.ndarray:
+    """The part code of each box shape of ``pairs`` (a box is a body of one part, every box's
+    the same code); -1 for the others."""
+    is_box = pairs.table.is_box
+    if not is_box.any():
+        return np.full(len(is_box), -1, np.int32)
+    code = pieces.codes_of(pairs.shapes[int(np.argmax(is_box))])[0]
+    return np.where(is_box, code, -1).astype(np.int32)
 
 
 def _box_rows(pieces: Pieces, plan: plans.Plan, predictor, caps: plans.Caps) -> None:
     """The box rows through the box chain, in chunks (one contact per touching pair)."""
     pairs, rows = plan.pairs, plan.box_rows
-    shapes = pairs.shapes
-    sizes = np.array([s.size if s.is_box else (1.0, 1.0, 1.0) for s in shapes])
-    code = _box_codes(pieces, shapes)
+    sizes = pairs.table.size
+    code = _box_codes(pieces, pairs)
     index_a, index_b = pairs.column("shape_a"), pairs.column("shape_b")
     unsupported: list[np.ndarray] = []
     for start, stop in chunks(len(rows), CHUNK_ROWS):
@@ -236,25 +241,41 @@ def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) 
                 np.full(n, pieces.codes_of(group.shape_b)[0]))
 
 
-def _apart_gaps(pieces: Pieces, groups: list, margin: float) -> None:
-    """The rows of every group whose bodies' spheres do not meet, as :func:`_gaps` answers
-    them, in one call of the gap query whatever the number of distinct pairs of shapes."""
-    if not groups:
-        return
-    shapes, slot = [], {}
-    for group in groups:
-        for shape in (group.shape_a, group.shape_b):
-            if id(shape) not in slot:
-                slot[id(shape)] = len(shapes)
-                shapes.append(shape)
-    sizes = [len(g.rows) for g in groups]
-    body_a = np.repeat([slot[id(g.shape_a)] for g in groups], sizes)
-    body_b = np.repeat([slot[id(g.shape_b)] for g in groups], sizes)
-    poses = [np.concatenate([g.poses[k] for g in groups]) for k in range(4)]
-    gaps = bodies_gaps([_gap_parts(s) for s in shapes], body_a, body_b, *poses)
-    _write_gaps(pieces, np.concatenate([g.rows for g in groups]), gaps, margin,
-                np.repeat([pieces.codes_of(g.shape_a)[0] for g in groups], sizes),
-                np.repeat([pieces.codes_of(g.shape_b)[0] for g in groups], sizes))
+def _shape_bodies(pairs, used: np.ndarray) -> tuple[list, np.ndarray]:
+    """(the gap query's bodies, each shape's body number (s,), -1 unused) of the shapes
+    ``used`` (u,) of ``pairs``: every box among them one row of :func:`box_bodies`, the others
+    their body tables."""
+    table = pairs.table
+    boxes, others = used[table.is_box[used]], used[~table.is_box[used]]
+    bodies = ([box_bodies(table.size[boxes])] if len(boxes) else []) + \
+        [body_table(pairs.shapes[k].parts) for k in others.tolist()]
+    number = np.full(len(pairs.shapes), -1, np.int64)
+    number[boxes] = np.arange(len(boxes))
+    number[others] = len(boxes) + np.arange(len(others))
+    return bodies, number
+
+
+def _first_codes(pieces: Pieces, pairs, index: np.ndarray) -> np.ndarray:
+    """(k,) the part code of the first part of shapes ``index`` (k,) of ``pairs``."""
+    unique, inverse = np.unique(index, return_inverse=True)
+    box = _box_codes(pieces, pairs)
+    first = np.array([box[k] if box[k] >= 0 else pieces.codes_of(pairs.shapes[k])[0]
+                      for k in unique.tolist()], np.int64)
+    return first[inverse.reshape(-1)]
+
+
+def _apart_gaps(pieces: Pieces, pairs, apart: plans.Apart, margin: float) -> None:
+    """The rows whose bodies' spheres do not meet, as :func:`_gaps` answers them, in one call
+    of the gap query whatever the number of distinct shapes."""
+    used = np.unique(np.concatenate([apart.shape_a, apart.shape_b]))
+    bodies, number = _shape_bodies(pairs, used)
+    gaps = bodies_gaps(bodies, number[apart.shape_a], number[apart.shape_b], *apart.poses)
+    within = gaps.distance <= margin
+    first_a, first_b = (np.zeros(len(apart.rows), np.int64) for _ in "ab")
+    if within.any():
+        first_a[within] = _first_codes(pieces, pairs, apart.shape_a[within])
+        first_b[within] = _first_codes(pieces, pairs, apart.shape_b[within])
+    _write_gaps(pieces, apart.rows, gaps, margin, first_a, first_b)
 
 
 def _write_gaps(pieces: Pieces, rows: np.ndarray, gaps, margin: float, first_a: np.ndarray,
@@ -281,18 +302,15 @@ def _box_gaps(pieces: Pieces, plan: plans.Plan) -> None:
     rows = rows[plans.reachable(plan.pairs, rows, plan.margin)]
     if not len(rows):
         return
-    hulls = [body_table(s.parts).hulls[0] if s.is_box else None for s in plan.pairs.shapes]
-    used = sorted({int(k) for side in "ab" for k in plan.pairs.column(f"shape_{side}")[rows]})
-    slot = {k: i for i, k in enumerate(used)}
-    index = [np.array([slot[int(k)] for k in plan.pairs.column(f"shape_{side}")[rows]])
-             for side in "ab"]
-    gaps = hull_gaps([hulls[k] for k in used], *index, *plan.pairs.poses(rows))
+    index = [plan.pairs.column(f"shape_{side}")[rows].astype(np.int64) for side in "ab"]
+    bodies, number = _shape_bodies(plan.pairs, np.unique(np.concatenate(index)))
+    gaps = bodies_gaps(bodies, number[index[0]], number[index[1]], *plan.pairs.poses(rows))
     within = gaps.distance <= plan.margin
     near = rows[within]
     pieces.body["distance"][near] = gaps.distance[within]
     pieces.body["point"][near] = gaps.point[within]
     pieces.body["closest_a"][near] = gaps.point_a[within]
     pieces.body["closest_b"][near] = gaps.point_b[within]
-    code = _box_codes(pieces, plan.pairs.shapes)
+    code = _box_codes(pieces, plan.pairs)
     for side in "ab":
         pieces.body[f"part_{side}"][near] = code[plan.pairs.column(f"shape_{side}")[near]]

@@ -60,33 +60,54 @@ def _boxes(hulls) -> tuple[np.ndarray, np.ndarray]:
     return centre, half
 
 
-#: A body table's hull tables and part bounds, built once per table (a scene body's table
-#: lives as long as the scene: a batch of many small bodies against one container must not
-#: rebuild the container's tables pair by pair).
+@dataclass(frozen=True)
+class PartTables:
+    """The parts of one or more bodies as the gap kernel reads them (H hulls of B bodies, the
+    bodies' hulls one after the other)."""
+
+    tables: HullTables  # the H hulls, body frames, m
+    centre: np.ndarray  # (H, 3) the centres of the hulls' bounds, m
+    half: np.ndarray  # (H, 3) their half extents, m
+    hulls: np.ndarray  # (B,) int64 the hulls of each body
+
+
+#: A body table's part tables, built once per table (a scene body's table lives as long as
+#: the scene: a batch of many small bodies against one container must not rebuild the
+#: container's tables pair by pair).
 _BODY_PARTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def box_parts(size) -> tuple[HullTables, np.ndarray, np.ndarray]:
-    """A box body's part tables from its full edge lengths ``size`` (3,), metres, with no hull
-    built: its corners (in the box hull's order), its largest half extent and its corners'
-    reach, its bounds (the same arithmetic as a built hull's, so the same answers bit for bit;
-    a batch of many distinct box sizes builds one of these per size, not a hull)."""
-    corners = np.ascontiguousarray(bf.vertex_positions(np.asarray(size, np.float64)))
-    extent = 0.5 * float((corners.max(axis=0) - corners.min(axis=0)).max())
-    sizes = np.array([[extent, float(np.linalg.norm(corners, axis=1).max())]], np.float64)
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
-    centre, half = (0.5 * (lo + hi)).reshape(1, 3), (0.5 * (hi - lo)).reshape(1, 3)
-    return HullTables(corners, np.array([0, len(corners)], np.int64), sizes), centre, half
+def box_bodies(sizes) -> PartTables:
+    """The part tables of k box bodies of full edge lengths ``sizes`` (k, 3), metres, with no
+    hull built: their corners (in the box hull's order), each one's largest half extent and its
+    corners' reach, its bounds (the same arithmetic as a built hull's, so the same answers bit
+    for bit; a batch of many distinct box sizes is one array operation, not a hull a size)."""
+    sizes = np.asarray(sizes, np.float64).reshape(-1, 3)
+    corners = bf.vertex_positions(sizes)  # (k, 8, 3)
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    extent = 0.5 * (hi - lo).max(axis=1)
+    reach = np.linalg.norm(corners, axis=2).max(axis=1)
+    k, per = corners.shape[:2]
+    tables = HullTables(np.ascontiguousarray(corners.reshape(-1, 3)),
+                        np.arange(0, k * per + 1, per, dtype=np.int64),
+                        np.ascontiguousarray(np.stack([extent, reach], axis=1)))
+    return PartTables(tables, 0.5 * (lo + hi), 0.5 * (hi - lo), np.ones(k, np.int64))
 
 
-def _body_parts(table) -> tuple[HullTables, np.ndarray, np.ndarray]:
-    """(hull tables, bounds' centres (H, 3), half extents (H, 3)) of one body's parts; a tuple
-    of them (:func:`box_parts`) is taken as it is."""
-    if isinstance(table, tuple):
+def box_parts(size) -> PartTables:
+    """One box body's part tables (:func:`box_bodies`) from its full edge lengths (3,), m."""
+    return box_bodies(np.reshape(size, (1, 3)))
+
+
+def _body_parts(table) -> PartTables:
+    """The part tables of one body's table (:mod:`impactnet.models.compound.body_table`);
+    :class:`PartTables` are taken as they are."""
+    if isinstance(table, PartTables):
         return table
     found = _BODY_PARTS.get(table)
     if found is None:
-        found = (tables_of_hulls(tuple(table.hulls)), *_boxes(table.hulls))
+        found = PartTables(tables_of_hulls(tuple(table.hulls)), *_boxes(table.hulls),
+                           np.array([len(table.hulls)], np.int64))
         if not table.transient:
             _BODY_PARTS[table] = found
     return found
@@ -201,29 +222,32 @@ def body_gaps(table_a, table_b, position_a, quaternion_a, position_b, quaternion
                        position_b, quaternion_b, limit)
 
 
-def _joined(parts: list) -> tuple:
+def _joined(parts: list[PartTables]) -> tuple:
     """(flat hull tables, bounds' centres, half extents, each body's first hull (B + 1,)) of
-    several bodies' part tables, hull after hull."""
-    counts = [p[0].n_hulls for p in parts]
-    first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    corners = np.concatenate([[0], np.cumsum([int(p[0].vertex_start[-1]) for p in parts])])
-    vertex_start = np.concatenate([p[0].vertex_start[:-1] + corners[k]
+    several :class:`PartTables`, hull after hull."""
+    first = np.concatenate([[0], np.cumsum(np.concatenate([p.hulls for p in parts]))])
+    corners = np.concatenate([[0], np.cumsum([int(p.tables.vertex_start[-1]) for p in parts])])
+    vertex_start = np.concatenate([p.tables.vertex_start[:-1] + corners[k]
                                    for k, p in enumerate(parts)] + [corners[-1:]])
-    flat = (np.ascontiguousarray(np.concatenate([p[0].vertices for p in parts]), np.float64),
+    flat = (np.ascontiguousarray(np.concatenate([p.tables.vertices for p in parts]),
+                                 np.float64),
             np.ascontiguousarray(vertex_start, np.int64),
-            np.ascontiguousarray(np.concatenate([p[0].hull_size for p in parts]), np.float64))
-    centre = np.ascontiguousarray(np.concatenate([p[1] for p in parts]), np.float64)
-    half = np.ascontiguousarray(np.concatenate([p[2] for p in parts]), np.float64)
-    return flat, centre, half, first
+            np.ascontiguousarray(np.concatenate([p.tables.hull_size for p in parts]),
+                                 np.float64))
+    centre = np.ascontiguousarray(np.concatenate([p.centre for p in parts]), np.float64)
+    half = np.ascontiguousarray(np.concatenate([p.half for p in parts]), np.float64)
+    return flat, centre, half, first.astype(np.int64)
 
 
 def bodies_gaps(bodies, body_a, body_b, position_a, quaternion_a, position_b, quaternion_b,
                 limit: float = np.inf) -> BodyGaps:
-    """The gaps of N poses, row k between ``bodies[body_a[k]]`` and ``bodies[body_b[k]]``
-    (body tables or :func:`box_parts`; ``body_a``, ``body_b``: (n,) or (1,) indices) in one
-    compiled call whatever the number of distinct bodies, so that a batch of many box sizes
-    against one container costs its rows, not a call per size. Answers as :func:`body_gaps`;
-    each row's tie slack is its own two bodies' (their largest part's half extent)."""
+    """The gaps of N poses, row k between bodies ``body_a[k]`` and ``body_b[k]`` of
+    ``bodies`` (body tables, one body each, or :class:`PartTables` of one or more, such as
+    :func:`box_bodies`: the bodies are numbered in that order; ``body_a``, ``body_b``: (n,) or
+    (1,) indices) in one compiled call whatever the number of distinct bodies, so that a batch
+    of many box sizes against one container costs its rows, not a call per size. Answers as
+    :func:`body_gaps`; each row's tie slack is its own two bodies' (their largest part's half
+    extent)."""
     parts = [_body_parts(b) for b in bodies]
     flat, centre, half, first = _joined(parts)
     body_a = np.asarray(body_a, np.int64).reshape(-1)
@@ -233,7 +257,7 @@ def bodies_gaps(bodies, body_a, body_b, position_a, quaternion_a, position_b, qu
     widest = int(((spans[:, 1] - spans[:, 0]) * (spans[:, 3] - spans[:, 2])).max())
     if widest > MAX_PART_PAIRS:
         raise ValueError(f"{widest} part pairs: more than {MAX_PART_PAIRS}")
-    largest = np.array([float(p[2].max()) for p in parts])
+    largest = np.maximum.reduceat(half.max(axis=1), first[:-1])  # (B,) per body
     ties = np.ascontiguousarray(SUPPORT_REL * np.maximum(*np.broadcast_arrays(
         largest[body_a], largest[body_b])), np.float64)
     rot_a, t, r = _relative(position_a, quaternion_a, position_b, quaternion_b)

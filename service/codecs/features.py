@@ -43,7 +43,8 @@ def labels(answers: Answers, parts: np.ndarray, ids: np.ndarray,
     names = np.full(len(ids), "none", dtype=object)
     kinds = np.full(len(ids), "none", dtype=object)
     known = (parts >= 0) & (ids >= 0)
-    box = known & is_box[np.where(parts >= 0, parts, 0)]
+    box = known.copy()  # an answer without any part code has empty tables
+    box[known] = is_box[parts[known]]
     names[box], kinds[box] = _BOX_NAMES[ids[box] + 1], _BOX_KINDS[ids[box] + 1]
     hull = known & ~box
     if hull.any():

@@ -11,6 +11,7 @@ import numpy as np
 import orjson
 
 from impactnet.models.dispatch import Shape
+from impactnet.models.dispatch.shapes import Shapes
 from impactnet.models.frame import Bodies
 from impactnet.service.codecs.columns import body_arrays, body_columns, row_count
 from impactnet.service.codecs.npz import Layout
@@ -99,7 +100,7 @@ def npz_bodies(columns: dict, scene: SceneView, convention: str, max_bodies: int
     n = row_count(parsed, per_row, max_bodies, "frame", too_many_bodies)
     extra: list = []
     shape, position, quaternion = body_arrays(parsed, "", n, scene, convention, extra)
-    shapes = scene.shapes + tuple(extra)
+    shapes = Shapes(scene.shapes, np.concatenate(extra) if extra else None)
     used, index = np.unique(shape, return_inverse=True)
     return _bodies(_ids(columns, n), [shapes[k] for k in used], index.reshape(-1), position,
                    quaternion, _mask(columns, "contype", n), _mask(columns, "conaffinity", n),

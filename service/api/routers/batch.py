@@ -42,7 +42,8 @@ pair i's contacts at `offsets[i]:offsets[i+1]`, the deepest first), `part_a`, `p
 `model_version`. npz members are named by their path (`feature_a_name`, `contact_offsets`,
 `contact_feature_b_kind`); JSON's nulls (a distance beyond the margin, angles without contact)
 are inf and NaN in npz. Caps: `max_candidates_per_pose`, `max_candidates_per_request` (413
-`too_many_candidates`), `max_part_contacts_per_pose`, `max_part_contacts_per_batch` (413
+`too_many_candidates`), `max_shape_pairs_per_request` (413 `too_many_shape_pairs`),
+`max_part_contacts_per_pose`, `max_part_contacts_per_batch` (413
 `too_many_part_contacts`), each named by the error's `limit`.
 """
 

@@ -18,7 +18,7 @@ router = APIRouter(tags=["models"])
 LIMITS = ("max_body_bytes", "max_json_body_bytes", "max_pair_body_bytes", "body_timeout_s",
           "memory_budget_bytes", "max_batch_pairs", "max_concurrency", "compute_deadline_s",
           "max_batch_workers", "max_queued_large_work", "small_work_max",
-          "max_candidates_per_pose", "max_candidates_per_request",
+          "max_candidates_per_pose", "max_candidates_per_request", "max_shape_pairs_per_request",
           "max_part_contacts_per_pose", "max_part_contacts_per_batch", "max_inline_parts",
           "max_frustum_sides", "max_hull_points", "max_section_points", "max_mesh_bytes",
           "max_mesh_vertices", "max_mesh_faces", "max_inline_vertices")

@@ -10,7 +10,14 @@ import pytest
 from impactnet.models.box.exact import box_box
 from impactnet.models.compound import compound_answer, container, spreader
 from impactnet.models.compound.candidates import TooManyCandidates
-from impactnet.models.dispatch import Caps, Dispatcher, Pairs, Shape, TooManyContacts
+from impactnet.models.dispatch import (
+    Caps,
+    Dispatcher,
+    Pairs,
+    Shape,
+    TooManyContacts,
+    TooManyShapePairs,
+)
 
 LEVEL = [1.0, 0.0, 0.0, 0.0]
 C40, SPREADER = Shape(container("40ft", detail=2), "container40"), \
@@ -101,3 +108,49 @@ def test_the_caps_stop_the_work_naming_the_row():
     with pytest.raises(TooManyCandidates) as candidates:
         Dispatcher().answer(stacked, caps=Caps(candidates_per_request=50))
     assert candidates.value.pose is None and candidates.value.cap == 50
+
+
+def _distinct_boxes_by_c40(n: int, seed: int, distance: tuple[float, float]) -> Pairs:
+    """``n`` distinct box sizes, each its own shape, at ``distance`` (m, a range) from a 40 ft
+    container's centre in random directions, turned about random axes."""
+    rng = np.random.default_rng(seed)
+    boxes = tuple(Shape.box(size) for size in rng.uniform(0.3, 2.0, (n, 3)))
+    direction = rng.normal(size=(n, 3))
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    position = direction * rng.uniform(*distance, (n, 1))
+    return Pairs((C40,) + boxes, np.arange(1, n + 1), np.zeros(1, np.int64), position, q,
+                 np.zeros((1, 3)), np.array([LEVEL]))
+
+
+def test_many_distinct_box_sizes_apart_answer_as_each_row_alone():
+    pairs = _distinct_boxes_by_c40(120, 3, (9.0, 16.0))  # past the spheres, some within 6 m
+    plan = Dispatcher().plan(pairs, margin=6.0)
+    assert plan.groups == [] and len(plan.apart.rows) == 120  # columns, not a group a size
+    got = Dispatcher().answer(pairs, margin=6.0)
+    assert 0 < np.isfinite(got.body["distance"]).sum() < 120  # both sides of the margin
+    assert list(got.part_names).count("box") == 1  # every box size shares its part's code
+    for row in range(120):
+        alone = Dispatcher().answer(Pairs((C40, pairs.shapes[row + 1]), np.array([1]),
+                                          np.array([0]), *pairs.poses(np.array([row]))),
+                                    margin=6.0)
+        for name in ("normal", "point", "distance", "closest_a", "closest_b"):
+            np.testing.assert_array_equal(got.body[name][row], alone.body[name][0], name)
+        for side in "ab":
+            code, one = got.body[f"part_{side}"][row], alone.body[f"part_{side}"][0]
+            assert (code < 0) == (one < 0)
+            if code >= 0:
+                assert got.part_names[code] == alone.part_names[one]
+
+
+def test_distinct_pairs_of_shapes_that_may_touch_past_the_cap_are_refused_by_the_plan(
+        monkeypatch):
+    from impactnet.models.dispatch import plan as plans
+
+    formed = []
+    monkeypatch.setattr(plans, "Group", lambda *a: formed.append(1))
+    pairs = _distinct_boxes_by_c40(30, 4, (1.0, 3.0))  # every row within reach
+    with pytest.raises(TooManyShapePairs) as refused:
+        Dispatcher().plan(pairs, caps=Caps(shape_pairs_per_request=29))
+    assert (refused.value.count, refused.value.cap) == (30, 29) and formed == []

@@ -148,6 +148,39 @@ def test_distinct_pairs_that_cannot_touch_cost_no_per_pair_setup(make_client, mo
     assert np.isfinite(answer["normal"]).all() and (answer["normal"] != 0).any(axis=1).all()
 
 
+def _boxes_by_a_container(rows: int, seed: int, position, repeats: int = 1) -> bytes:
+    """``rows`` distinct box sizes, each ``repeats`` times, at ``position`` from a container40
+    (npz)."""
+    sizes = np.tile(np.random.default_rng(seed).uniform(0.5, 2.0, (rows, 3)), (repeats, 1))
+    return _npz(a_size=sizes, b_object=np.array("container40"), a_position=np.zeros(3),
+                b_position=np.array(position, float), a_euler=np.zeros(3),
+                b_euler=np.zeros(3))
+
+
+def test_distinct_pairs_that_may_touch_past_the_cap_are_413_before_any_setup(
+        make_client, monkeypatch, solved):
+    counted = []
+    monkeypatch.setattr(dispatch_plan, "candidate_pairs",
+                        lambda *a, **k: counted.append(1) or candidates_module.candidate_pairs(
+                            *a, **k))
+    client = make_client(scene="quay_crane_detail", max_shape_pairs_per_request=20)
+    near = [0.0, 0.0, 1.5]  # every box within reach of the container
+    response = client.post("/v2/contact/batch", content=_boxes_by_a_container(21, 0, near),
+                           headers=NPZ)
+    answer = assert_error(response, 413, error="too_many_shape_pairs")
+    assert answer["limit"] == "max_shape_pairs_per_request"
+    assert "name 21 distinct pairs" in answer["detail"][0]["reason"]
+    assert counted == [] and solved == []  # refused by the plan: no group was counted
+    assert 'reason="max_shape_pairs_per_request"} 1.0' in client.get("/metrics").text
+    served = client.post("/v2/contact/batch",  # rows of one size share their pair
+                         content=_boxes_by_a_container(20, 0, near, repeats=50), headers=NPZ)
+    assert served.status_code == 200 and len(counted) == 20
+    assert len(np.load(io.BytesIO(served.content))["colliding"]) == 1_000
+    far = client.post("/v2/contact/batch",  # rows that cannot touch are not groups
+                      content=_boxes_by_a_container(2_000, 1, [50.0, 0, 0]), headers=NPZ)
+    assert far.status_code == 200
+
+
 @pytest.mark.parametrize("accept", ["application/json", "application/x-npz"])
 def test_a_large_compound_answer_is_streamed_and_equals_the_whole(make_client, accept):
     client = make_client(scene="quay_crane_detail")

@@ -105,8 +105,30 @@ def test_the_limits_are_listed_with_the_caps(client):
                  "max_section_points", "max_mesh_bytes", "max_mesh_vertices", "max_mesh_faces",
                  "max_inline_vertices", "max_candidates_per_pose", "max_candidates_per_request",
                  "max_part_contacts_per_pose", "max_part_contacts_per_batch",
-                 "compute_deadline_s"):
+                 "max_shape_pairs_per_request", "compute_deadline_s"):
         assert limits[name] > 0, name
+
+
+def test_an_inline_body_s_hulls_are_built_off_the_event_loop(client, monkeypatch):
+    """Regression: asking whether a single pair is two boxes read the shapes' bounding spheres,
+    which built a 256-sided frustum's hull on the event loop (/healthz stalled 130 ms)."""
+    import asyncio
+
+    built = []
+
+    def on_loop() -> bool:
+        try:
+            asyncio.get_running_loop()
+        except RuntimeError:
+            return False
+        return True
+
+    make = hull_module._make
+    monkeypatch.setattr(hull_module, "_make", lambda *a: built.append(on_loop()) or make(*a))
+    frustum = {"name": "f", "frustum": {"sides": 256, "base": 0.5, "height": 0.3}}
+    response = client.post("/v2/contact", json={"a": _inline(frustum), "b": _box_body(0.79)})
+    assert response.status_code == 200, response.text
+    assert built and not any(built)
 
 
 def test_an_inline_body_of_many_parts_is_served(client):

@@ -74,8 +74,8 @@ def frame_stages(bodies: Bodies, dispatcher: Dispatcher, margin: float = 0.0):
     def gaps():
         for group in plan.groups:
             sv._gaps(filled, group, ~filled.body["colliding"][group.rows], margin)
-        for group in plan.apart:
-            sv._gaps(filled, group, np.ones(len(group.rows), bool), margin)
+        if plan.apart is not None:
+            sv._apart_gaps(filled, plan.pairs, plan.apart, margin)
 
     box = dispatcher.box_predictors["exact"]
     stages = {

@@ -21,8 +21,10 @@ REPLICA_BYTES = 1 << 30
 #: A pose with no rotation.
 LEVEL = [1.0, 0.0, 0.0, 0.0]
 #: Positions of B over A: two 40 ft containers pushed 5 cm into each other side by side (every
-#: part pair near another), stacked castings on castings, and 50 m apart.
-OVERLAP, STACKED, FAR = [0.05, 0.0, 0.0], [0.0, 0.0, 2.589], [50.0, 0.0, 0.0]
+#: part pair near another), stacked castings on castings, 50 m apart, and within reach (each
+#: small box's sphere meets the container's).
+OVERLAP, STACKED, FAR, NEAR = [0.05, 0.0, 0.0], [0.0, 0.0, 2.589], [50.0, 0.0, 0.0], \
+    [0.0, 0.0, 1.5]
 
 
 @dataclass(frozen=True)
@@ -102,6 +104,11 @@ def attacks(quick: bool = False) -> list[Attack]:
                                              a_position=np.zeros(3), b_position=np.array(FAR),
                                              a_euler=np.zeros(3), b_euler=np.zeros(3)),
                True, (200,)),
+        Attack("distinct_near_100k", "100,000 distinct box sizes beside a container",
+               "/v2/contact/batch", npz_body(a_size=far_sizes, b_object=np.array("container40"),
+                                             a_position=np.zeros(3), b_position=np.array(NEAR),
+                                             a_euler=np.zeros(3), b_euler=np.zeros(3)),
+               True, (413,)),
     ]
 
 
