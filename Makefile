@@ -34,11 +34,12 @@ $(PY):
 	$(BOOTSTRAP_PYTHON) -m venv $(VENV)
 
 # Runtime only (what serving needs): no torch.
-# The install ends by compiling every kernel into its cache (models/compiled.py), so that the
-# server's start only loads them.
+# The install ends by compiling kernels into their cache (models/compiled.py, one process per
+# core), so that the server's start only loads them: the runtime install those a request may
+# call, the development install every one (the library's own entries too).
 $(STAMP_RUNTIME): pyproject.toml setup.py | $(PY)
 	$(PIP) install -e .
-	$(PY) -m impactnet.models.compiled
+	$(PY) -m impactnet.models.compiled --serving
 	@touch $@
 
 # torch first, pinned, so that the `torch` requirement of the train extra is already met.

@@ -27,7 +27,9 @@ style); the same row function serves N = 1 and a million rows:
   :func:`impactnet.models.work.checkpoint` between chunks (:func:`chunks`), so the service's
   deadlines and cancellations stop compiled work too.
 * **Warm-up**: a module of kernels registers a function that compiles (or loads) them on small
-  inputs (:func:`on_warm_up`); :func:`warm_up` runs them all, before a server says ready.
+  inputs (:func:`on_warm_up`); :func:`warm_up` runs them: a server those a request may call,
+  before it says ready; the install (``python -m impactnet.models.compiled``) all of them, one
+  process per core (``--serving``: the server's only, as an image builds them).
 """
 from __future__ import annotations
 
@@ -149,6 +151,7 @@ _configure()
 
 _LAUNCH = threading.Lock()
 _WARM_UPS: list[Callable[[], None]] = []
+_LIBRARY_ONLY: set[Callable[[], None]] = set()
 
 
 def jit(function):
@@ -194,10 +197,17 @@ def chunks(n: int, rows: int = CHUNK_ROWS) -> Iterator[tuple[int, int]]:
         yield start, min(n, start + rows)
 
 
-def on_warm_up(function: Callable[[], None]) -> Callable[[], None]:
-    """Register ``function`` (no arguments: compiles or loads a module's kernels)."""
-    _WARM_UPS.append(function)
-    return function
+def on_warm_up(function: Callable[[], None] | None = None, *, serving: bool = True):
+    """Register ``function`` (no arguments: compiles or loads a module's kernels); as
+    ``@on_warm_up(serving=False)``, a warm-up of library entries that no request calls (the
+    install compiles them, a server's start does not wait for them)."""
+    def register(warm: Callable[[], None]) -> Callable[[], None]:
+        _WARM_UPS.append(warm)
+        if not serving:
+            _LIBRARY_ONLY.add(warm)
+        return warm
+
+    return register(function) if function is not None else register
 
 
 def _import_kernels() -> None:
@@ -220,22 +230,23 @@ def _warm_one(index: int) -> float:
     return time.perf_counter() - started
 
 
-def warm_up(processes: int = 1) -> int:
-    """Compile or load every registered kernel (importing the modules that hold them);
-    returns how many warm-ups ran. With ``processes`` > 1 the warm-ups first compile into the
-    cache in that many fresh processes (numba compiles in one thread; a cold cache of every
-    kernel takes minutes), then this process loads them."""
+def warm_up(processes: int = 1, serving: bool = False) -> int:
+    """Compile or load every registered kernel (importing the modules that hold them), or with
+    ``serving`` those a request may call; returns how many warm-ups ran. With ``processes`` > 1
+    the warm-ups first compile into the cache in that many fresh processes (numba compiles in
+    one thread; a cold cache of every kernel takes minutes), then this process loads them."""
     _import_kernels()
-    if processes > 1 and len(_WARM_UPS) > 1:
+    chosen = [k for k, f in enumerate(_WARM_UPS) if not (serving and f in _LIBRARY_ONLY)]
+    if processes > 1 and len(chosen) > 1:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
         context = multiprocessing.get_context("spawn")  # no numba state copied by a fork
-        with ProcessPoolExecutor(min(processes, len(_WARM_UPS)), mp_context=context) as pool:
-            list(pool.map(_warm_one, range(len(_WARM_UPS))))
-    for function in _WARM_UPS:
-        function()
-    return len(_WARM_UPS)
+        with ProcessPoolExecutor(min(processes, len(chosen)), mp_context=context) as pool:
+            list(pool.map(_warm_one, chosen))
+    for k in chosen:
+        _WARM_UPS[k]()
+    return len(chosen)
 
 
 #: The modules that hold kernels (imported by :func:`warm_up`, which runs their warm-ups): each
@@ -245,13 +256,20 @@ KERNEL_MODULES = ("impactnet.models.box.warm_up", "impactnet.models.compound.ker
                   "impactnet.models.distance.query", "impactnet.models.distance.bodies")
 
 
-def main() -> int:
-    """``python -m impactnet.models.compiled``: compile every kernel into the cache (an image's
-    build step) and say where it went."""
+def main(argv: list[str] | None = None) -> int:
+    """``python -m impactnet.models.compiled [--serving]``: compile every kernel into the
+    cache, one process per core, or with ``--serving`` those a server calls (an image's build
+    step), and say where they went."""
+    import argparse
+
     from impactnet.models import compiled  # the module the kernels register with (not __main__)
 
+    parser = argparse.ArgumentParser(prog="python -m impactnet.models.compiled")
+    parser.add_argument("--serving", action="store_true",
+                        help="only the kernels a request may call (not the library's own)")
+    args = parser.parse_args(argv)
     started = time.perf_counter()
-    count = compiled.warm_up(processes=available_cores())
+    count = compiled.warm_up(processes=available_cores(), serving=args.serving)
     folder = os.environ.get("NUMBA_CACHE_DIR") or compiled.cache_folder() or "none (in memory)"
     print(f"impactnet kernels: {count} warm-ups in {time.perf_counter() - started:.1f} s; "
           f"cache: {folder}")

@@ -123,7 +123,7 @@ class Runtime:
     def _build(self, prebuilt: ServingState | None) -> ServingState:
         started = time.perf_counter()
         compiled.set_threads(self.settings.kernel_threads)
-        kernels = compiled.warm_up()  # compiled (or loaded from the cache) before ready
+        kernels = compiled.warm_up(serving=True)  # compiled or loaded before ready
         log.info("kernels ready", extra={"warm_ups": kernels,
                                          "seconds": round(time.perf_counter() - started, 3)})
         state = prebuilt or build_state(self.settings)

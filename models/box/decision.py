@@ -56,8 +56,8 @@ def relative_pose(size_a, position_a, quaternion_a, size_b, position_b, quaterni
 
 
 class Decisions(NamedTuple):
-    """The solver's decision for n pairs (:func:`impactnet.models.box.kernel_views.
-    decision_rows` documents every field)."""
+    """The solver's decision for n pairs
+    (:func:`impactnet.models.box.kernel_views.decision_rows` documents every field)."""
 
     colliding: np.ndarray  # (n,) bool
     axis: np.ndarray  # (n,) int8, 0-14

@@ -5,9 +5,9 @@ The same row functions as the solver (:mod:`impactnet.models.box.kernels`), stop
 * :func:`unit_rows`, :func:`unit_pair`: the unit quaternions the solver uses;
 * :func:`relative_rows`: stage 1, B in A's frame (the learned predictors' canonical frame);
 * :func:`decision_rows`: stage 2 and the face contact's labels, without the clip and the
-  centre of pressure (the committee's region labeller, :mod:`impactnet.models.learned.
-  region_label`): the decision, the contact type and features, the edge-edge point, and the
-  incident face as seen from the reference face;
+  centre of pressure (the committee's region labeller,
+  :mod:`impactnet.models.learned.region_label`): the decision, the contact type and features, the
+  edge-edge point, and the incident face as seen from the reference face;
 * :func:`reference_rows`: points given in a face contact's reference coordinates, in the world;
 * :func:`axis_rows`: the 15 overlaps and unit axes of the separating-axis test (tests);
 * :func:`matrix_rows`: the whole solver on pairs whose orientations are given as matrices.

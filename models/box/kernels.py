@@ -17,9 +17,9 @@ the parallel one):
 
 * :func:`solve_pair`: one validated pair into row ``row`` of the output arrays; the function
   other kernels call (the compound oracle's, for its box part pairs);
-* :func:`solve_checked`: checks every pair (:func:`~impactnet.models.box.kernel_inputs.
-  first_fault`), then solves them all, serially: N = 1 (one-dimensional inputs) and small
-  batches, in one call;
+* :func:`solve_checked`: checks every pair
+  (:func:`~impactnet.models.box.kernel_inputs.first_fault`), then solves them all, serially: N = 1
+  (one-dimensional inputs) and small batches, in one call;
 * :func:`solve_rows` / :func:`solve_rows_parallel`: the rows ``start:stop`` of checked inputs,
   serially / over the kernel threads (``prange`` over tiles of :data:`TILE_ROWS` rows, one
   scratch array per tile);

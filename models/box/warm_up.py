@@ -1,6 +1,7 @@
 """The box solver's warm-up: every box kernel compiled (or loaded from the cache) for every
-argument type its Python entries pass, registered with :func:`impactnet.models.compiled.
-on_warm_up` (a module of its own, above the kernels and their entries, so that neither imports
+argument type its Python entries pass, registered with
+:func:`impactnet.models.compiled.on_warm_up` (a module of its own, above the kernels and their
+entries, so that neither imports
 the other back)."""
 from __future__ import annotations
 

@@ -56,14 +56,16 @@ class BodyTable:
 
     @cached_property
     def classes(self) -> SizeClasses:
-        """The parts' hulls by size class (:func:`~impactnet.models.compound.hull_stack.
-        size_classes`; a transient body's outside the shared cache)."""
+        """The parts' hulls by size class
+        (:func:`~impactnet.models.compound.hull_stack.size_classes`; a transient body's outside the
+        shared cache)."""
         return size_classes(self.hulls, cached=not self.transient)
 
     @cached_property
     def packed(self):
-        """The body as the compiled pipeline reads it (:func:`~impactnet.models.compound.
-        flat_tables.body_set`), built once; it lives with this table (a transient body's too,
+        """The body as the compiled pipeline reads it
+        (:func:`~impactnet.models.compound.flat_tables.body_set`), built once; it lives with this
+        table (a transient body's too,
         outside any shared cache)."""
         from impactnet.models.compound.flat_tables import body_set
 

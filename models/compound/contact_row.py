@@ -1,7 +1,8 @@
-"""The convex solver's contact of one row (stages 2 and 3 of :func:`~impactnet.models.compound.
-convex_contact.contact_rows`): the face contact of the reference face the separating-axis test
-chose (:func:`~impactnet.models.compound.convex_face.face_region`, in the reference hull's
-frame, mapped back to A's), an edge contact's closest points, a separated row's midpoint, and
+"""The convex solver's contact of one row (stages 2 and 3 of
+:func:`~impactnet.models.compound.convex_contact.contact_rows`): the face contact of the reference
+face the separating-axis test chose (:func:`~impactnet.models.compound.convex_face.face_region`, in
+the reference hull's frame, mapped back to A's), an edge contact's closest points, a separated row's
+midpoint, and
 the answer mapped to the world. Each mapping sums as the NumPy solver summed (its bits)."""
 from __future__ import annotations
 

@@ -214,7 +214,7 @@ def stacked_contacts(stack_a: HullTable | Hull, index_a, stack_b: HullTable | Hu
                     pressure=out.pressure)
 
 
-@on_warm_up
+@on_warm_up(serving=False)  # the pipeline's warm-up compiles what requests call
 def warm_up() -> None:
     """Compile (or load) every convex kernel: contacts and the separating-axis test alone, in
     this thread and over the kernel threads, on two small boxes."""

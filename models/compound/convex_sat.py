@@ -76,11 +76,12 @@ than the contact tolerance: every face of A, then of B, then the walk; their ``c
 the full test's, the rest of their row is not written. A row whose hull index is negative is
 skipped (a box part pair among a block's candidates).
 
-Stages, one module each: B in A's frame and the face axes (:mod:`~impactnet.models.compound.
-sat_faces`), the edge pairs' geometry and bounds (:mod:`~impactnet.models.compound.sat_edges`),
-the walk and the tie rule (:mod:`~impactnet.models.compound.sat_walk`); the row kernel that
-runs them (:mod:`~impactnet.models.compound.sat_rows`). This module: the Python entry
-(:func:`choose_axis`) and the launch of row kernels (:func:`run_rows`).
+Stages, one module each: B in A's frame and the face axes
+(:mod:`~impactnet.models.compound.sat_faces`), the edge pairs' geometry and bounds
+(:mod:`~impactnet.models.compound.sat_edges`), the walk and the tie rule
+(:mod:`~impactnet.models.compound.sat_walk`); the row kernel that runs them
+(:mod:`~impactnet.models.compound.sat_rows`). This module: the Python entry (:func:`choose_axis`)
+and the launch of row kernels (:func:`run_rows`).
 
 Every expression sums its terms in the order of the NumPy solver it replaces (``x0 y0 + x1 y1
 + x2 y2``), so the answers keep their bits. Kernels read a table's arrays out of their tuple

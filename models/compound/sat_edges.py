@@ -1,6 +1,7 @@
-"""The separating-axis test's edge axes (stage 3 of :func:`~impactnet.models.compound.
-convex_sat.sat_rows`): the geometry of an edge pair (its axis, separation and closest points),
-the bounds of an edge's separation over its Gauss-map arc, and the rounding margins the search
+"""The separating-axis test's edge axes (stage 3 of
+:func:`~impactnet.models.compound.convex_sat.sat_rows`): the geometry of an edge pair (its axis,
+separation and closest points), the bounds of an edge's separation over its Gauss-map arc, and the
+rounding margins the search
 prunes with (:mod:`~impactnet.models.compound.convex_sat`'s docstring gives the argument)."""
 from __future__ import annotations
 

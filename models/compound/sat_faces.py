@@ -1,6 +1,6 @@
-"""The separating-axis test's face axes (stage 2 of :func:`~impactnet.models.compound.
-convex_sat.sat_rows`): each face's separation from the other hull's support, found by
-steepest descent over the other hull's vertex graph with near-ties flooded
+"""The separating-axis test's face axes (stage 2 of
+:func:`~impactnet.models.compound.convex_sat.sat_rows`): each face's separation from the other
+hull's support, found by steepest descent over the other hull's vertex graph with near-ties flooded
 (:mod:`~impactnet.models.compound.convex_sat`'s docstring gives the argument), the tie rule's
 face and the rotation of a hull's rows into the other's frame (stage 1)."""
 from __future__ import annotations

@@ -1,7 +1,7 @@
-"""The separating-axis test's search of edge axes (stage 3b of :func:`~impactnet.models.compound.
-convex_sat.sat_rows`): the two hulls' Gauss-map trees walked together, and the tie rule that
-turns the faces' and the edges' separations into the contact axis (stage 4).
-:mod:`~impactnet.models.compound.convex_sat`'s docstring gives the argument of the walk's
+"""The separating-axis test's search of edge axes (stage 3b of
+:func:`~impactnet.models.compound.convex_sat.sat_rows`): the two hulls' Gauss-map trees walked
+together, and the tie rule that turns the faces' and the edges' separations into the contact axis
+(stage 4). :mod:`~impactnet.models.compound.convex_sat`'s docstring gives the argument of the walk's
 pruning."""
 from __future__ import annotations
 
@@ -161,9 +161,9 @@ def edge_walk(tree_a, tree_b, nodes_b, dirs_b, edges_a, edges_b, vertices, y, no
 
 @jit
 def tie_rule(vertices, normals, normals_b, edges_a, edges_b, y, row, faces, found):
-    """Stage 4: the contact axis by the tie rule (module docstring of :mod:`~impactnet.models.
-    compound.convex_sat`); a separated row takes the most separating axis. ``faces``:
-    (best overlap, largest face separation, tie-rule face, most separating face, A's face
+    """Stage 4: the contact axis by the tie rule (module docstring of
+    :mod:`~impactnet.models.compound.convex_sat`); a separated row takes the most separating axis.
+    ``faces``: (best overlap, largest face separation, tie-rule face, most separating face, A's face
     count); ``row`` and ``found`` as :func:`edge_walk` takes and returns them. Returns
     (colliding, kind, face, depth, normal (3), edge_a, edge_b, edge point (3))."""
     _, _, ea0, eb0, va0, fa0, _, _, centre, scale, normal = row

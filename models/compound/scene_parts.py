@@ -41,10 +41,10 @@ The generated shapes' parameters are documented in :mod:`impactnet.models.compou
 convex part); their errors come back as :class:`SceneError` naming the field
 (``bodies.stop.parts[2].mesh: ...``).
 
-Parts given by a client (the HTTP API) come with :class:`~impactnet.models.compound.part_limits.
-PartLimits`: their counts are checked on the tables before any shape is built, and a mesh must
-be data (``{format, data}``), never a file name. A scene file may name mesh files in its own
-folder only.
+Parts given by a client (the HTTP API) come with
+:class:`~impactnet.models.compound.part_limits.PartLimits`: their counts are checked on the tables
+before any shape is built, and a mesh must be data (``{format, data}``), never a file name. A scene
+file may name mesh files in its own folder only.
 """
 from __future__ import annotations
 
@@ -233,9 +233,10 @@ _GENERATED = {"frustum": _frustum, "wedge": _wedge, "prism": _prism}
 
 def check_not_inside_convex(body: str, parts: tuple) -> tuple:
     """``parts`` unchanged, after refusing (:class:`PartError`) a part whose every vertex lies
-    in a convex part of the same body (within :data:`~impactnet.models.compound.parts.
-    INSIDE_TOL_REL` of that part's size): it can never touch anything. The box containers are
-    :func:`~impactnet.models.compound.parts.validate_parts`' test. Only the parts whose bounds
+    in a convex part of the same body (within
+    :data:`~impactnet.models.compound.parts.INSIDE_TOL_REL` of that part's size): it can never touch
+    anything. The box containers are :func:`~impactnet.models.compound.parts.validate_parts`' test.
+    Only the parts whose bounds
     lie in a convex part's bounds are tested against its hull (Qhull's facets)."""
     lows, highs = (np.array(b) for b in zip(*(bounds(p) for p in parts)))
     for i, outer in enumerate(parts):

@@ -1,7 +1,7 @@
 """Generated convex shapes for compound bodies: the points of a cone frustum, a wedge and a
-prism, in the body's frame (metres). Each becomes a :class:`~impactnet.models.compound.parts.
-ConvexPart` (the hull of its points); :mod:`impactnet.models.compound.scene_parts` reads their
-parameters from scene files.
+prism, in the body's frame (metres). Each becomes a
+:class:`~impactnet.models.compound.parts.ConvexPart` (the hull of its points);
+:mod:`impactnet.models.compound.scene_parts` reads their parameters from scene files.
 
 * frustum: an N-sided section at ``centre`` (z = centre's z), its copy scaled by ``tip_scale``
   about the section's centre, ``height`` higher (negative: lower). The section is a regular

@@ -118,6 +118,13 @@ class Pieces:
     def predictor_codes(self, names) -> np.ndarray:
         """Codes (k,) of predictor names (k,) or of one name."""
         names = np.atleast_1d(np.asarray(names))
+        if not len(names):
+            return np.zeros(0, np.int8)
+        if len(names) == 1 or (names == names[0]).all():  # one predictor: no sort
+            name = str(names[0])
+            if name not in self.predictor_names:
+                self.predictor_names.append(name)
+            return np.full(len(names), self.predictor_names.index(name), np.int8)
         unique, inverse = np.unique(names, return_inverse=True)
         for name in unique.tolist():
             if name not in self.predictor_names:
@@ -141,13 +148,18 @@ class Pieces:
         row = np.concatenate(self.rows) if self.rows else np.zeros(0, np.int64)
         depth = (np.concatenate([c["depth"] for c in self.columns]) if self.columns
                  else np.zeros(0))
-        order = np.lexsort((-depth, row))  # rows in request order, the deepest first
+        # rows in request order, the deepest first; already so where every row has at most
+        # one contact and they come in order (box pairs)
+        ordered = bool((row[1:] > row[:-1]).all())
+        order = None if ordered else np.lexsort((-depth, row))
         wanted = CONTACT_COLUMNS + (MANIFOLD_COLUMNS if self.manifold else ())
         contacts = {}
         for name, dtype, shape in wanted:
             parts = [c.pop(name) for c in self.columns]
-            column = np.concatenate(parts) if parts else np.zeros((0, *shape), dtype)
-            contacts[name] = column[order].astype(dtype, copy=False)
+            column = (parts[0] if len(parts) == 1 else np.concatenate(parts) if parts
+                      else np.zeros((0, *shape), dtype))
+            column = column if order is None else column[order]
+            contacts[name] = column.astype(dtype, copy=False)
         offsets = np.zeros(self.n + 1, np.int64)
         np.cumsum(np.bincount(row, minlength=self.n), out=offsets[1:])
         self.rows, self.columns = [], []

@@ -9,8 +9,8 @@ Rows of N pairs split three ways:
   gap and separating direction in one call of the gap query;
 * **compound rows** (a body made of parts): grouped by their pair of shapes; the broadphase
   counts each group's candidate part pairs under the caps (:class:`Caps`), and their work is
-  the candidates weighted by their hulls' sizes (:func:`~impactnet.models.compound.candidates.
-  pair_work`).
+  the candidates weighted by their hulls' sizes
+  (:func:`~impactnet.models.compound.candidates.pair_work`).
 
 :attr:`Plan.work` (box-pair solves) chooses where the work runs; :meth:`Plan.memory_bytes`
 is what it may allocate, reserved before it starts.

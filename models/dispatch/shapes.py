@@ -152,8 +152,17 @@ class Pairs:
     quaternion_b: np.ndarray
 
     def __len__(self) -> int:
+        return self.n
+
+    @cached_property
+    def n(self) -> int:
+        """The rows (the longest column)."""
         return max(len(c) for c in (self.shape_a, self.shape_b, self.position_a,
                                     self.quaternion_a, self.position_b, self.quaternion_b))
+
+    @cached_property
+    def _columns(self) -> dict:
+        return {}
 
     @cached_property
     def table(self) -> ShapeTable:
@@ -161,9 +170,12 @@ class Pairs:
         return ShapeTable(self.shapes)
 
     def column(self, name: str) -> np.ndarray:
-        """Column ``name`` broadcast to n rows."""
-        values = getattr(self, name)
-        return np.broadcast_to(values, (len(self),) + values.shape[1:])
+        """Column ``name`` broadcast to n rows (a read-only view, made once)."""
+        found = self._columns.get(name)
+        if found is None:
+            values = getattr(self, name)
+            found = self._columns[name] = np.broadcast_to(values, (self.n,) + values.shape[1:])
+        return found
 
     def poses(self, rows: np.ndarray) -> tuple[np.ndarray, ...]:
         """(position_a, quaternion_a, position_b, quaternion_b) of ``rows``."""

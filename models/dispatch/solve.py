@@ -67,8 +67,8 @@ class Dispatcher:
         return plans.plan(pairs, mode, self._chains(mode), include, margin, caps)
 
     def count(self, plan: plans.Plan, caps: plans.Caps = plans.Caps()) -> plans.Plan:
-        """The broadphase's count under ``caps`` (:func:`impactnet.models.dispatch.plan.
-        count`)."""
+        """The broadphase's count under ``caps``
+        (:func:`impactnet.models.dispatch.plan.count`)."""
         return plans.count(plan, caps)
 
     def solve(self, plan: plans.Plan, caps: plans.Caps = plans.Caps()) -> Answers:

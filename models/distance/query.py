@@ -3,9 +3,10 @@
 :func:`polytope_gaps` takes the two polytopes' vertices (body frames; a box is its 8 corners)
 and N poses of each body, and returns :class:`Gaps` (world frame, metres). The pair's hull
 tables are built once per pair of vertex arrays (cached, :data:`PAIR_CACHE_SIZE` pairs);
-:class:`PolytopePair` keeps them explicitly. Batches of :data:`~impactnet.models.compiled.
-PARALLEL_MIN_ROWS` rows or more run on the parallel kernel, launched chunk by chunk
-(:func:`impactnet.models.compiled.launch`, :func:`~impactnet.models.compiled.chunks`).
+:class:`PolytopePair` keeps them explicitly. Batches of
+:data:`~impactnet.models.compiled.PARALLEL_MIN_ROWS` rows or more run on the parallel kernel,
+launched chunk by chunk (:func:`impactnet.models.compiled.launch`,
+:func:`~impactnet.models.compiled.chunks`).
 """
 from __future__ import annotations
 
@@ -142,7 +143,7 @@ def polytope_gaps(vertices_a, vertices_b, position_a, rotation_a, position_b,
     return pair.gaps(position_a, rotation_a, position_b, rotation_b)
 
 
-@compiled.on_warm_up
+@compiled.on_warm_up(serving=False)  # a library entry: no request calls it
 def warm_up() -> None:
     """Compile (or load) the kernels on a box over a box, serial and parallel."""
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)

@@ -4,8 +4,8 @@ predictors (the contract: docs/learned_predictors.md).
 Stages, as training and inference both apply them:
 
 1. :func:`relative_pose`: B in A's frame, ``t = R_A^T (p_B - p_A)``, ``R = R_A^T R_B``,
-   float64, computed exactly as the exact solver does (:func:`impactnet.models.box.decision.
-   relative_pose`).
+   float64, computed exactly as the exact solver does
+   (:func:`impactnet.models.box.decision.relative_pose`).
 2. :func:`canonicalize`: the sign symmetries of both boxes move B's centre into A's positive
    octant and A's centre into B's: ``S = diag(sign t)``, ``T = diag(sign u)`` with
    ``u = -(S R)^T S t`` (ties +1), ``t' = S t``, ``R' = S R T`` (possibly improper: it still

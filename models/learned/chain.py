@@ -10,9 +10,9 @@ it is given. The committee hands on
   spread, depth outside the trained range, the face-face regions of
   :data:`impactnet.models.learned.kernel_pair.AUTO_EXACT_TYPES`).
 
-Both links run in one compiled row function (:func:`impactnet.models.learned.kernel_pair.
-answer_row`): a row handed on is solved there by the exact solver's own row function, for one
-pair and for a batch alike.
+Both links run in one compiled row function
+(:func:`impactnet.models.learned.kernel_pair.answer_row`): a row handed on is solved there by the
+exact solver's own row function, for one pair and for a batch alike.
 """
 from __future__ import annotations
 

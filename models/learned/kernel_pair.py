@@ -3,9 +3,9 @@
 
 Per row (:func:`answer_row`), in the mode the caller picked for the row's pair:
 
-* ``single`` (:func:`single_row`): the canonical frame (:mod:`~impactnet.models.learned.
-  kernel_frame`), the pair's MLP (:mod:`~impactnet.models.learned.kernel_mlp`), the outputs
-  back to the world;
+* ``single`` (:func:`single_row`): the canonical frame
+  (:mod:`~impactnet.models.learned.kernel_frame`), the pair's MLP
+  (:mod:`~impactnet.models.learned.kernel_mlp`), the outputs back to the world;
 * ``committee`` and ``auto`` (:func:`committee_row`): the exact labeller
   (:func:`impactnet.models.learned.region_label.label`, in the request's order), then the
   chain's decision: the canonical region of the contact (the labels mirrored into the bundle's
@@ -95,8 +95,9 @@ def unpack(values, index):
 @jit
 def make_scratch(layers, regions):
     """Per-thread scratch of :func:`answer_row`, as views of two allocations: the exact
-    solver's, the MLPs' (the features first, :func:`~impactnet.models.learned.kernel_mlp.
-    forward`) and its width, the committee's member outputs and their mean, the labeller's
+    solver's, the MLPs' (the features first,
+    :func:`~impactnet.models.learned.kernel_mlp.forward`) and its width, the committee's member
+    outputs and their mean, the labeller's
     (:func:`~impactnet.models.learned.region_label.scratch`)."""
     most = 1
     for r in range(regions.shape[0] - 1):

@@ -63,11 +63,19 @@ def _names(table: np.ndarray, codes: np.ndarray) -> np.ndarray:
 
 
 def _feature_columns(a: Answers, prefix: tuple, parts, ids, rows, body: bool, tables) -> list:
+    last: dict = {}  # the labels of the last slice read: names and kinds labelled once
+
+    def labelled(start, stop):
+        if last.get("slice") != (start, stop):
+            last["slice"] = (start, stop)
+            last["labels"] = ft.labels(a, parts[start:stop], ids[start:stop], tables)
+        return last["labels"]
+
     def names(start, stop):
-        return ft.labels(a, parts[start:stop], ids[start:stop], tables)[0]
+        return labelled(start, stop)[0]
 
     def kinds(start, stop):
-        return ft.labels(a, parts[start:stop], ids[start:stop], tables)[1]
+        return labelled(start, stop)[1]
 
     out = [Column((*prefix, "part"), rows, lambda s, e: _names(a.part_names, parts[s:e]),
                   f"<U{max(1, max(map(len, a.part_names.tolist()), default=1))}")] if body else []
@@ -203,9 +211,23 @@ def _put(target: dict, path: tuple, value) -> None:
     target[path[-1]] = value
 
 
+def _python(values) -> list:
+    """A slice as JSON-ready Python values, as :func:`_json` writes them: a row with a NaN or
+    inf is None, missing names None."""
+    if isinstance(values, np.ndarray) and values.dtype.kind in "biuf":
+        listed = values.tolist()
+        if values.dtype.kind == "f" and not np.isfinite(values).all():
+            known = np.isfinite(values).reshape(len(values), -1).all(axis=1)
+            listed = [row if ok else None for row, ok in zip(listed, known.tolist(), strict=True)]
+        return listed
+    return np.asarray(values, dtype=object).tolist()
+
+
 def _listed(column: Column) -> list:
     """A whole column as JSON-ready Python values (names, numbers, None)."""
-    return orjson.loads(b"[" + b",".join(_json(v) for v in _slices(column) if len(v)) + b"]")
+    if column.rows <= STREAM_ROWS:  # one slice (a single pair's answer)
+        return _python(column.read(0, column.rows))
+    return [value for v in _slices(column) for value in _python(v)]
 
 
 def rows_json(a: Answers, pairs: Pairs, include) -> list[dict]:

@@ -1,7 +1,7 @@
-"""A frame's bodies (POST /v2/frame, POST /v2/worlds) as :class:`~impactnet.models.frame.
-Bodies`: from JSON (a list of body objects, each a pair's body with an ``id``) or from npz
-columns (``id``, ``object`` | ``size``, ``position``, one orientation, optionally ``contype``
-and ``conaffinity``; one row per body). A refusal names the body by its id.
+"""A frame's bodies (POST /v2/frame, POST /v2/worlds) as
+:class:`~impactnet.models.frame.Bodies`: from JSON (a list of body objects, each a pair's body with
+an ``id``) or from npz columns (``id``, ``object`` | ``size``, ``position``, one orientation,
+optionally ``contype`` and ``conaffinity``; one row per body). A refusal names the body by its id.
 """
 from __future__ import annotations
 

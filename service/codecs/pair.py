@@ -1,8 +1,8 @@
-"""One pair's request (POST /v2/contact) as the dispatcher's :class:`~impactnet.models.dispatch.
-Pairs`: a body is a scene object (the scene's shape), a raw ``size`` (a box) or inline ``parts``
-(a compound body built for this request within the settings' limits); its orientation becomes
-a unit quaternion. Shared with the batch and frame codecs: :func:`quaternion_of`,
-:func:`unknown_object_reason`, :func:`rotation_reason`.
+"""One pair's request (POST /v2/contact) as the dispatcher's
+:class:`~impactnet.models.dispatch.Pairs`: a body is a scene object (the scene's shape), a raw
+``size`` (a box) or inline ``parts`` (a compound body built for this request within the settings'
+limits); its orientation becomes a unit quaternion. Shared with the batch and frame codecs:
+:func:`quaternion_of`, :func:`unknown_object_reason`, :func:`rotation_reason`.
 """
 from __future__ import annotations
 

@@ -101,3 +101,24 @@ def test_warm_up_runs_every_registered_warm_up(monkeypatch):
     monkeypatch.setattr(compiled, "_WARM_UPS", [lambda: calls.append(1)])
     monkeypatch.setattr(compiled, "KERNEL_MODULES", ())  # a module imported now would register
     assert compiled.warm_up() == 1 and calls == [1]
+
+
+def test_a_server_s_warm_up_leaves_the_library_s_own_entries_to_the_install(monkeypatch):
+    calls = []
+    monkeypatch.setattr(compiled, "_WARM_UPS", [])
+    monkeypatch.setattr(compiled, "_LIBRARY_ONLY", set())
+    monkeypatch.setattr(compiled, "KERNEL_MODULES", ())
+    compiled.on_warm_up(lambda: calls.append("request path"))
+    compiled.on_warm_up(serving=False)(lambda: calls.append("library entry"))
+    assert compiled.warm_up(serving=True) == 1 and calls == ["request path"]
+    assert compiled.warm_up() == 2 and calls[1:] == ["request path", "library entry"]
+
+
+def test_the_convex_solver_s_and_the_distance_query_s_own_entries_are_library_only():
+    from impactnet.models.compound import convex_contact, warm
+    from impactnet.models.distance import bodies, query
+
+    assert convex_contact.warm_up in compiled._LIBRARY_ONLY
+    assert query.warm_up in compiled._LIBRARY_ONLY
+    assert warm.warm_up not in compiled._LIBRARY_ONLY  # the pipeline: requests call it
+    assert bodies._warm_up not in compiled._LIBRARY_ONLY

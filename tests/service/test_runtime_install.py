@@ -133,8 +133,9 @@ def installed(tmp_path_factory, wheel_dir) -> Installed:
     env = {**_env(venv), **KERNEL_ENV, "IMPACTNET_KERNEL_CACHE_DIR": str(root / "kernels")}
     assert all(f"{k}={v}" in (REPO / "docker" / "Dockerfile").read_text()
                for k, v in KERNEL_ENV.items())
-    # RUN python -m impactnet.models.compiled: the image compiles every kernel while it is built.
-    _run(python, "-m", "impactnet.models.compiled", cwd=root, env=env)
+    # RUN python -m impactnet.models.compiled --serving: the image compiles every kernel a
+    # request may call while it is built.
+    _run(python, "-m", "impactnet.models.compiled", "--serving", cwd=root, env=env)
     return Installed(venv, python, site, env)
 
 

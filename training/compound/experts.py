@@ -2,15 +2,15 @@
 step 2).
 
 A region is a part pair and a coarse region of its contact
-(:mod:`impactnet.models.learned.compound.experts`, :mod:`impactnet.models.learned.compound.
-regions`). For the :attr:`ExpertConfig.max_regions` regions with the most training contacts (at
-least :attr:`ExpertConfig.min_rows`), a committee of K tanh MLPs is fitted (one
-:class:`impactnet.training.fit.torch_mlp.StackedMLP` of K x regions networks, each on its region's
-rows; members differ by their initial weights) to the contact in A's part frame, by squared error in
-units of the scene's tolerances. On the validation rows the committee's p99 errors are compared with
-the tolerances (depth 2 % of the depth range, normal ``accuracy.normal_deg``, point
-``Scene.point_tolerance_m`` of the two parts): the region takes the committee only where all three
-are met, else the exact part-pair solver (cheaper for box parts and exact everywhere). Every
+(:mod:`impactnet.models.learned.compound.experts`,
+:mod:`impactnet.models.learned.compound.regions`). For the :attr:`ExpertConfig.max_regions` regions
+with the most training contacts (at least :attr:`ExpertConfig.min_rows`), a committee of K tanh MLPs
+is fitted (one :class:`impactnet.training.fit.torch_mlp.StackedMLP` of K x regions networks, each on
+its region's rows; members differ by their initial weights) to the contact in A's part frame, by
+squared error in units of the scene's tolerances. On the validation rows the committee's p99 errors
+are compared with the tolerances (depth 2 % of the depth range, normal ``accuracy.normal_deg``,
+point ``Scene.point_tolerance_m`` of the two parts): the region takes the committee only where all
+three are met, else the exact part-pair solver (cheaper for box parts and exact everywhere). Every
 region's figures go into the bundle.
 """
 from __future__ import annotations

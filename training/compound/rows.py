@@ -1,8 +1,8 @@
 """One compound pair's labelled rows, split, with the arrays every stage needs.
 
-Rows are the oracle's first-contact rows of :func:`impactnet.training.data.compound_data.
-compound_rows` (A at the origin, unrotated), split into training, validation and held-out
-rows by a seeded permutation (:data:`SPLIT`).
+Rows are the oracle's first-contact rows of
+:func:`impactnet.training.data.compound_data.compound_rows` (A at the origin, unrotated), split into
+training, validation and held-out rows by a seeded permutation (:data:`SPLIT`).
 """
 from __future__ import annotations
 

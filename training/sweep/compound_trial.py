@@ -1,7 +1,7 @@
 """`impactnet sweep` on compound pairs (issue #21, step 5): a trial draws the learned path's
-settings, trains the trial's compound pairs (:func:`impactnet.training.compound.pair.
-train_compound_pair`) on the scene's labelled rows and returns the same three objectives as on
-box pairs, all minimised:
+settings, trains the trial's compound pairs
+(:func:`impactnet.training.compound.pair.train_compound_pair`) on the scene's labelled rows and
+returns the same three objectives as on box pairs, all minimised:
 
 1. ``fallback``: share of the held-out rows that ``auto`` sends to the oracle (pooled over the
    trial's pairs);

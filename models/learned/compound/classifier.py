@@ -13,10 +13,10 @@ outside the box of the training rows (widened by :data:`DOMAIN_MARGIN_REL`) is *
 sends it to the oracle.
 
 A classifier may be shared by the four corners of symmetric bodies: each corner's group then
-sees its features through its mirror (``mirror``, :func:`impactnet.models.learned.compound.
-groups.mirror_features`) and names its own part pairs (the shared labels mapped through the
-mirror), so one network learns from four times the rows. Its regions are named in corner fl's
-frame and mapped back through the mirror.
+sees its features through its mirror (``mirror``,
+:func:`impactnet.models.learned.compound.groups.mirror_features`) and names its own part pairs (the
+shared labels mapped through the mirror), so one network learns from four times the rows. Its
+regions are named in corner fl's frame and mapped back through the mirror.
 
 The whole stage (features, MLP, probabilities, regions, domain) is one compiled row function
 (:mod:`impactnet.models.learned.compound.kernel_classify`), run for one classifier by

@@ -2,10 +2,10 @@
 labels' probabilities, each label's coarse region and whether the pose lies in the domain; one
 row function for one pose and for a batch (:mod:`impactnet.models.compiled`).
 
-The classifiers of a pair (:class:`~impactnet.models.learned.compound.classifier.
-GroupClassifier`, one per group) are gathered into one :class:`ClassifierSet`: their MLPs as
-one pack (:func:`impactnet.models.learned.mlp.pack`), their labels numbered one after another
-(classifier order, then label order) and these arrays:
+The classifiers of a pair
+(:class:`~impactnet.models.learned.compound.classifier.GroupClassifier`, one per group) are gathered
+into one :class:`ClassifierSet`: their MLPs as one pack (:func:`impactnet.models.learned.mlp.pack`),
+their labels numbered one after another (classifier order, then label order) and these arrays:
 
 * ``table`` (C, 4) int64: per classifier, its member in the pack (-1: no label), its first
   label, its number of labels v and its first slot;
@@ -16,12 +16,12 @@ one pack (:func:`impactnet.models.learned.mlp.pack`), their labels numbered one 
   the mirror (its group's own frame).
 
 Per pose and classifier (:func:`classify_row`): the features (B's group centre in A's group
-frame and B's rotation's first two columns, seen through the mirror: :func:`impactnet.models.
-learned.compound.groups.group_features`, ``mirror_features``), the domain test, the MLP
-(:func:`impactnet.models.learned.kernel_mlp.forward`: one logit per label, then one per slot),
-``sigmoid(clip(logit / temperature, +-60))`` per label and the slot of largest logit among the
-label's own (the first where several tie) with its softmax share. A label is a candidate where
-its probability reaches its classifier's ``candidate_min`` (the caller's mask).
+frame and B's rotation's first two columns, seen through the mirror:
+:func:`impactnet.models.learned.compound.groups.group_features`, ``mirror_features``), the domain
+test, the MLP (:func:`impactnet.models.learned.kernel_mlp.forward`: one logit per label, then one
+per slot), ``sigmoid(clip(logit / temperature, +-60))`` per label and the slot of largest logit
+among the label's own (the first where several tie) with its softmax share. A label is a candidate
+where its probability reaches its classifier's ``candidate_min`` (the caller's mask).
 """
 from __future__ import annotations
 

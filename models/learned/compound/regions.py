@@ -1,16 +1,17 @@
 """Coarse contact regions of a part pair (issue #21, step 1): what the classifier names besides
 the touching part pairs, at a granularity that does not grow with the parts' detail.
 
-A part contact's *coarse region* is its contact type (:data:`impactnet.models.contacts.
-CONTACT_TYPES`) and, on each part, the face of the part's body-frame bounding box that the
-contact normal leaves A's part through and enters B's part through: a box part's own face; a
-twistlock head's side (``+x`` ... ``-y``), top (``+z``) or base (``-z``), however many sides its
-frustum has. Which of 128 frustum sides touches is the expert's business.
+A part contact's *coarse region* is its contact type
+(:data:`impactnet.models.contacts.CONTACT_TYPES`) and, on each part, the face of the part's
+body-frame bounding box that the contact normal leaves A's part through and enters B's part through:
+a box part's own face; a twistlock head's side (``+x`` ... ``-y``), top (``+z``) or base (``-z``),
+however many sides its frustum has. Which of 128 frustum sides touches is the expert's business.
 
 A region is one integer, ``type * 36 + face_a * 6 + face_b``, faces numbered as
-:data:`FACE_NAMES`. Seen through a mirror of both bodies (:data:`impactnet.models.learned.
-compound.groups.CORNER_MIRRORS`), a region keeps its type and both faces flip along the mirrored
-axes (:func:`mirror_regions`): the canonical frame of the pooled corner classifier.
+:data:`FACE_NAMES`. Seen through a mirror of both bodies
+(:data:`impactnet.models.learned.compound.groups.CORNER_MIRRORS`), a region keeps its type and both
+faces flip along the mirrored axes (:func:`mirror_regions`): the canonical frame of the pooled
+corner classifier.
 """
 from __future__ import annotations
 
