@@ -28,7 +28,7 @@ from impactnet.models.compound.candidates import answer_of_poses, pose_slices
 from impactnet.models.dispatch import plan as plans
 from impactnet.models.dispatch.answers import Answers, Pieces
 from impactnet.models.dispatch.shapes import Pairs
-from impactnet.models.distance.bodies import bodies_gaps, body_gaps, box_bodies, box_parts
+from impactnet.models.distance.bodies import bodies_gaps, box_bodies
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.models.work import checkpoint
 
@@ -82,12 +82,11 @@ class Dispatcher:
             for start, stop in pose_slices(group.candidates.counts, plans.SLICE_CANDIDATES):
                 checkpoint()
                 _compound_slice(pieces, group, start, stop, plan.mode, caps)
-            _gaps(pieces, group, ~pieces.body["colliding"][group.rows], plan.margin)
         if plan.apart is not None:  # one set of columns, whatever their shapes
             checkpoint()
             pieces.add(plan.apart.rows, {}, ORACLE, np.zeros(0, np.int64),
                        _no_contacts(pieces.manifold))
-            _apart_gaps(pieces, plan.pairs, plan.apart, plan.margin)
+        _separated_gaps(pieces, plan)
         return pieces.merged()
 
     def answer(self, pairs: Pairs, mode: str = "exact", include=(), margin: float = 0.0,
@@ -220,27 +219,6 @@ def _no_contacts(manifold: bool) -> dict:
     return {name: np.zeros((0, *shape), dtype) for name, dtype, shape in wanted}
 
 
-def _gap_parts(shape):
-    """What the gap query reads of a shape: a box's closed-form part tables (no hull built, so
-    that many distinct box sizes stay cheap), else its body table."""
-    return box_parts(shape.size) if shape.is_box else body_table(shape.parts)
-
-
-def _gaps(pieces: Pieces, group: plans.Group, apart: np.ndarray, margin: float) -> None:
-    """Rows ``apart`` (k,) of a compound group, without contact: the separating direction and
-    the midpoint of their closest part pair (:mod:`impactnet.models.distance.bodies`); the
-    gap as their distance where it is within ``margin``."""
-    if not apart.any():
-        return
-    p_a, q_a, p_b, q_b = (c[apart] for c in group.poses)
-    gaps = body_gaps(_gap_parts(group.shape_a), _gap_parts(group.shape_b), p_a,
-                     q_a, p_b, q_b)
-    n = int(apart.sum())
-    _write_gaps(pieces, group.rows[apart], gaps, margin,
-                np.full(n, pieces.codes_of(group.shape_a)[0]),
-                np.full(n, pieces.codes_of(group.shape_b)[0]))
-
-
 def _shape_bodies(pairs, used: np.ndarray) -> tuple[list, np.ndarray]:
     """(the gap query's bodies, each shape's body number (s,), -1 unused) of the shapes
     ``used`` (u,) of ``pairs``: every box among them one row of :func:`box_bodies`, the others
@@ -264,18 +242,33 @@ def _first_codes(pieces: Pieces, pairs, index: np.ndarray) -> np.ndarray:
     return first[inverse.reshape(-1)]
 
 
-def _apart_gaps(pieces: Pieces, pairs, apart: plans.Apart, margin: float) -> None:
-    """The rows whose bodies' spheres do not meet, as :func:`_gaps` answers them, in one call
-    of the gap query whatever the number of distinct shapes."""
-    used = np.unique(np.concatenate([apart.shape_a, apart.shape_b]))
+def _separated_rows(pieces: Pieces, plan: plans.Plan) -> np.ndarray:
+    """The compound rows without contact, once their groups are solved: the near groups' rows
+    that do not touch, then the rows that cannot touch."""
+    rows = [g.rows[~pieces.body["colliding"][g.rows]] for g in plan.groups]
+    rows += [plan.apart.rows] if plan.apart is not None else []
+    return np.concatenate(rows) if rows else np.zeros(0, np.int64)
+
+
+def _separated_gaps(pieces: Pieces, plan: plans.Plan) -> None:
+    """Every compound row without contact (:func:`_separated_rows`): the separating direction
+    and the midpoint of its closest part pair (:mod:`impactnet.models.distance.bodies`), the gap
+    as its distance where it is within the margin; one call of the gap query whatever the
+    number of groups and distinct shapes."""
+    rows = _separated_rows(pieces, plan)
+    if not len(rows):
+        return
+    pairs, separated = plan.pairs, plans.Apart.of(plan.pairs, rows)
+    used = np.unique(np.concatenate([separated.shape_a, separated.shape_b]))
     bodies, number = _shape_bodies(pairs, used)
-    gaps = bodies_gaps(bodies, number[apart.shape_a], number[apart.shape_b], *apart.poses)
-    within = gaps.distance <= margin
-    first_a, first_b = (np.zeros(len(apart.rows), np.int64) for _ in "ab")
+    gaps = bodies_gaps(bodies, number[separated.shape_a], number[separated.shape_b],
+                       *separated.poses)
+    within = gaps.distance <= plan.margin
+    first_a, first_b = (np.zeros(len(rows), np.int64) for _ in "ab")
     if within.any():
-        first_a[within] = _first_codes(pieces, pairs, apart.shape_a[within])
-        first_b[within] = _first_codes(pieces, pairs, apart.shape_b[within])
-    _write_gaps(pieces, apart.rows, gaps, margin, first_a, first_b)
+        first_a[within] = _first_codes(pieces, pairs, separated.shape_a[within])
+        first_b[within] = _first_codes(pieces, pairs, separated.shape_b[within])
+    _write_gaps(pieces, rows, gaps, plan.margin, first_a, first_b)
 
 
 def _write_gaps(pieces: Pieces, rows: np.ndarray, gaps, margin: float, first_a: np.ndarray,

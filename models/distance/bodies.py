@@ -94,11 +94,6 @@ def box_bodies(sizes) -> PartTables:
     return PartTables(tables, 0.5 * (lo + hi), 0.5 * (hi - lo), np.ones(k, np.int64))
 
 
-def box_parts(size) -> PartTables:
-    """One box body's part tables (:func:`box_bodies`) from its full edge lengths (3,), m."""
-    return box_bodies(np.reshape(size, (1, 3)))
-
-
 def _body_parts(table) -> PartTables:
     """The part tables of one body's table (:mod:`impactnet.models.compound.body_table`);
     :class:`PartTables` are taken as they are."""
@@ -214,7 +209,7 @@ def _rows(tables, centre, half, spans, t, r, limit, ties, out):
 def body_gaps(table_a, table_b, position_a, quaternion_a, position_b, quaternion_b,
               limit: float = np.inf) -> BodyGaps:
     """The gaps of N poses of two bodies (body tables of
-    :mod:`impactnet.models.compound.body_table`, or a box's :func:`box_parts`; poses (n, 3)
+    :mod:`impactnet.models.compound.body_table`, or :func:`box_bodies` of one box; poses (n, 3)
     metres, (n, 4) unit quaternions); pairs farther apart than ``limit`` (m) answer an infinite
     distance and no parts."""
     first = np.zeros(1, np.int64)
@@ -271,16 +266,6 @@ def bodies_gaps(bodies, body_a, body_b, position_a, quaternion_a, position_b, qu
     return _world(position_a, rot_a, *out)
 
 
-@compiled.jit
-def _indexed_rows(tables, hull_a, hull_b, t, r, out):
-    """The gap of row k between hulls ``hull_a[k]`` and ``hull_b[k]`` of one table (serial)."""
-    work = np.empty(scratch_slots(int(np.max(np.diff(tables[1])))))
-    distance, point_a, point_b, point, direction = out
-    for row in range(t.shape[0]):
-        gap_row(tables[0], tables[1], tables[2], hull_a[row], hull_b[row], t[row], r[row], work,
-                row, distance, point_a, point_b, point, direction)
-
-
 def _relative(position_a, quaternion_a, position_b, quaternion_b):
     """(R_A (n, 3, 3), t (n, 3), R (n, 3, 3)): B's pose in A's frame."""
     rot_a, rot_b = quaternion_to_matrix(quaternion_a), quaternion_to_matrix(quaternion_b)
@@ -295,23 +280,6 @@ def _world(position_a, rot_a, distance, pa, pb, mid, direction, part_a, part_b) 
                     part_b)
 
 
-def hull_gaps(hulls, hull_a, hull_b, position_a, quaternion_a, position_b,
-              quaternion_b) -> BodyGaps:
-    """The gaps of N rows, row k between ``hulls[hull_a[k]]`` and ``hulls[hull_b[k]]`` (each a
-    body of one part, e.g. boxes of many sizes), world frame; parts are the hull indices."""
-    tables = tables_of_hulls(tuple(hulls))
-    rot_a, t, r = _relative(position_a, quaternion_a, position_b, quaternion_b)
-    n = len(t)
-    out = (np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)))
-    hull_a = np.ascontiguousarray(hull_a, np.int64)
-    hull_b = np.ascontiguousarray(hull_b, np.int64)
-    flat = (tables.vertices, tables.vertex_start, tables.hull_size)
-    for lo, hi in compiled.chunks(n):
-        _indexed_rows(flat, hull_a[lo:hi], hull_b[lo:hi], t[lo:hi], r[lo:hi],
-                      tuple(o[lo:hi] for o in out))
-    return _world(position_a, rot_a, *out, hull_a, hull_b)
-
-
 @compiled.on_warm_up
 def _warm_up() -> None:
     from impactnet.models.compound.body_table import TransientParts, body_table
@@ -320,4 +288,3 @@ def _warm_up() -> None:
     box = body_table(TransientParts((BoxPart("box", (1.0, 1.0, 1.0)),)))
     level = np.array([[1.0, 0.0, 0.0, 0.0]])
     body_gaps(box, box, np.zeros((1, 3)), level, np.array([[0.0, 0.0, 2.0]]), level)
-    hull_gaps(box.hulls, [0], [0], np.zeros((1, 3)), level, np.array([[0.0, 0.0, 2.0]]), level)

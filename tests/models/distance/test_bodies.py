@@ -8,7 +8,8 @@ import pytest
 
 from impactnet.models.compound import cell_guide, container, spreader
 from impactnet.models.compound.body_table import body_table
-from impactnet.models.distance.bodies import body_gaps, hull_gaps
+from impactnet.models.distance.bodies import body_gaps
+from impactnet.models.distance.query import polytope_gaps
 
 LEVEL = [1.0, 0.0, 0.0, 0.0]
 
@@ -21,15 +22,13 @@ def _poses(n: int, seed: int, centre, spread: float, tilt: float = 0.05):
 
 
 def _exhaustive(table_a, table_b, position_b, quaternion_b):
-    """The smallest gap over every part pair, each solved alone (A at the origin)."""
-    n = len(position_b)
-    hulls = tuple(table_a.hulls) + tuple(table_b.hulls)
-    best = np.full(n, np.inf)
-    for i in range(len(table_a.hulls)):
-        for j in range(len(table_b.hulls)):
-            gaps = hull_gaps(hulls, np.full(n, i), np.full(n, len(table_a.hulls) + j),
-                             np.zeros((n, 3)), np.tile(LEVEL, (n, 1)), position_b,
-                             quaternion_b)
+    """The smallest gap over every part pair, each solved alone by the distance query's own
+    entry (A at the origin)."""
+    best = np.full(len(position_b), np.inf)
+    for hull_a in table_a.hulls:
+        for hull_b in table_b.hulls:
+            gaps = polytope_gaps(hull_a.vertices, hull_b.vertices, np.zeros(3), LEVEL,
+                                 position_b, quaternion_b)
             best = np.minimum(best, gaps.distance)
     return best
 

@@ -71,12 +71,6 @@ def frame_stages(bodies: Bodies, dispatcher: Dispatcher, margin: float = 0.0):
     filled = _compound(plan, caps, Pieces(n))
     answers = dispatcher.solve(plan, caps)
 
-    def gaps():
-        for group in plan.groups:
-            sv._gaps(filled, group, ~filled.body["colliding"][group.rows], margin)
-        if plan.apart is not None:
-            sv._apart_gaps(filled, plan.pairs, plan.apart, margin)
-
     box = dispatcher.box_predictors["exact"]
     stages = {
         "bodies (arrays to Bodies, rotations)":
@@ -87,7 +81,7 @@ def frame_stages(bodies: Bodies, dispatcher: Dispatcher, margin: float = 0.0):
         "box pairs (box solver)": lambda: sv._box_rows(Pieces(n), plan, box, caps),
         "compound oracle (narrowphase, filter, summary)":
             lambda: _compound(plan, caps, Pieces(n)),
-        "gaps (separated compound pairs)": gaps,
+        "gaps (separated compound pairs)": lambda: sv._separated_gaps(filled, plan),
         "frame answer (kept rows)": lambda: frame_answer(bodies, found, answers),
     }
     whole = frame_call(bodies, dispatcher, margin)

@@ -20,6 +20,7 @@ to 5 mm and turned by up to 0.5 degrees about random axes, seeded.
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 
 import numpy as np
@@ -80,7 +81,7 @@ def measure(poses: int, requests: int, log=print) -> dict:
     with running_server(SCENE, None, log) as (client, info):
         out["server"] = info
         out["floor"] = latency(lambda: client.request("GET", "/healthz"), requests, 50)
-        turn = iter(range(10 ** 9))
+        turn = itertools.count()
 
         def one():
             i = next(turn) % len(position)
