@@ -14,6 +14,8 @@ style); the same row function serves N = 1 and a million rows:
   ``~/.cache/impactnet/kernels``, else a folder in the temporary directory), each kernel
   stamped with the :func:`fingerprint` of the files it may inline, so that editing a module
   recompiles the kernels that depend on it (numba alone notices a kernel's own file only).
+  The cache is keyed by contents, not by where the sources lie: a cache built by one install
+  loads in another install of the same sources (the tree's in a wheel's; a moved virtualenv).
   numba keys the cache by CPU: an image built on one machine and run on another sets
   ``NUMBA_CPU_NAME=generic`` for both (docker/Dockerfile).
 * **Threads**: ``IMPACTNET_KERNEL_THREADS`` (default: the cores this process may use) threads
@@ -115,8 +117,9 @@ def _configure() -> None:
     from numba.core.caching import CacheImpl, UserProvidedCacheLocator
 
     class _Locator(UserProvidedCacheLocator):
-        """Kernels of ``impactnet.models`` cached under :func:`cache_folder`, each stamped
-        with its own file and the :func:`fingerprint` of its folder's dependencies."""
+        """Kernels of ``impactnet.models`` cached under :func:`cache_folder` in a folder
+        named by the package path, each stamped with the hash of its own file's contents
+        and the :func:`fingerprint` of its folder's dependencies."""
 
         root = Path(__file__).resolve().parent
         base = cache_folder()
@@ -125,8 +128,12 @@ def _configure() -> None:
         def __init__(self, py_func, py_file):
             self._py_file = py_file
             self._lineno = py_func.__code__.co_firstlineno
-            self._cache_path = str(self.base / self.get_suitable_cache_subpath(py_file))
             relative = Path(py_file).resolve().relative_to(self.root).parts
+            # The folder mirrors the file's place in the package, not its absolute path
+            # (numba's own locator hashes that): a cache built by one install of the same
+            # sources (the source tree, an image's build stage) loads in another, wherever
+            # it lies, since the stamps compare contents.
+            self._cache_path = str(self.base.joinpath("models", *relative[:-1]))
             self._folder = relative[0] if len(relative) > 1 else None
 
         def get_source_stamp(self):
@@ -152,6 +159,8 @@ _configure()
 _LAUNCH = threading.Lock()
 _WARM_UPS: list[Callable[[], None]] = []
 _LIBRARY_ONLY: set[Callable[[], None]] = set()
+#: Kernel signatures compiled by the compile workers of this process's warm-ups.
+_COMPILED_BY_WORKERS = [0]
 
 
 def jit(function):
@@ -222,12 +231,27 @@ def _import_kernels() -> None:
                 raise
 
 
-def _warm_one(index: int) -> float:
-    """Warm-up ``index`` in this process (a compile worker of :func:`warm_up`); its seconds."""
+def signature_counts() -> tuple[int, int]:
+    """``(loaded, compiled)``: kernel signatures this process loaded from the cache, and
+    those compiled for it (here, or by the compile workers of its :func:`warm_up`)."""
+    import sys
+
+    from numba.core.registry import CPUDispatcher
+
+    kernels = {id(value): value for name, module in list(sys.modules.items())
+               if name.startswith("impactnet.models") and module is not None
+               for value in list(vars(module).values()) if isinstance(value, CPUDispatcher)}
+    loaded = sum(sum(k.stats.cache_hits.values()) for k in kernels.values())
+    compiled_here = sum(sum(k.stats.cache_misses.values()) for k in kernels.values())
+    return loaded, compiled_here + _COMPILED_BY_WORKERS[0]
+
+
+def _warm_one(index: int) -> int:
+    """Warm-up ``index`` in this process (a compile worker of :func:`warm_up`); the kernel
+    signatures it compiled."""
     _import_kernels()
-    started = time.perf_counter()
     _WARM_UPS[index]()
-    return time.perf_counter() - started
+    return signature_counts()[1]
 
 
 def warm_up(processes: int = 1, serving: bool = False) -> int:
@@ -243,7 +267,7 @@ def warm_up(processes: int = 1, serving: bool = False) -> int:
 
         context = multiprocessing.get_context("spawn")  # no numba state copied by a fork
         with ProcessPoolExecutor(min(processes, len(chosen)), mp_context=context) as pool:
-            list(pool.map(_warm_one, chosen))
+            _COMPILED_BY_WORKERS[0] += sum(pool.map(_warm_one, chosen))
     for k in chosen:
         _WARM_UPS[k]()
     return len(chosen)
@@ -270,9 +294,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     started = time.perf_counter()
     count = compiled.warm_up(processes=available_cores(), serving=args.serving)
+    loaded, compiled_count = compiled.signature_counts()
     folder = os.environ.get("NUMBA_CACHE_DIR") or compiled.cache_folder() or "none (in memory)"
-    print(f"impactnet kernels: {count} warm-ups in {time.perf_counter() - started:.1f} s; "
-          f"cache: {folder}")
+    print(f"impactnet kernels: {count} warm-ups in {time.perf_counter() - started:.1f} s "
+          f"({compiled_count} signatures compiled, {loaded} loaded); cache: {folder}")
     return 0
 
 

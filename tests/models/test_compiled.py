@@ -1,8 +1,13 @@
 """The compiled core's common ground (models/compiled.py): chunks stop at the work limit,
 parallel launches are safe from many threads at once, the cache folder is writable wherever
-the package is installed, warm-ups run once registered."""
+the package is installed and is keyed by contents (a cache built ahead for a generic CPU loads
+in another process and another folder), warm-ups run once registered."""
 from __future__ import annotations
 
+import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -122,3 +127,38 @@ def test_the_convex_solver_s_and_the_distance_query_s_own_entries_are_library_on
     assert query.warm_up in compiled._LIBRARY_ONLY
     assert warm.warm_up not in compiled._LIBRARY_ONLY  # the pipeline: requests call it
     assert bodies._warm_up not in compiled._LIBRARY_ONLY
+
+
+# A process that loads the frame's broadphase kernels and prints (loaded, compiled) signatures.
+_LOAD_FRAME_KERNELS = ("from impactnet.models import compiled; "
+                       "from impactnet.models.frame import broadphase; "
+                       "broadphase._warm_up(); print(*compiled.signature_counts())")
+
+
+def _counts(env: dict) -> tuple[int, int]:
+    result = subprocess.run([sys.executable, "-c", _LOAD_FRAME_KERNELS], capture_output=True,
+                            text=True, timeout=300, env=env, check=True)
+    loaded, compiled_count = map(int, result.stdout.split())
+    return loaded, compiled_count
+
+
+@pytest.mark.slow
+def test_a_cache_built_ahead_for_a_generic_cpu_loads_elsewhere_without_compiling(tmp_path):
+    """An image's build stage compiles for ``NUMBA_CPU_NAME=generic`` (docker/Dockerfile); the
+    running container, on another machine and with the cache in another folder, only loads."""
+    env = {**os.environ, "NUMBA_CPU_NAME": "generic",
+           compiled.CACHE_ENV: str(tmp_path / "built")}
+    assert _counts(env)[1] > 0  # the build stage: a cold cache, compiled
+    shutil.copytree(tmp_path / "built", tmp_path / "shipped")
+    loaded, compiled_count = _counts({**env, compiled.CACHE_ENV: str(tmp_path / "shipped")})
+    assert loaded > 0 and compiled_count == 0
+
+
+def test_the_cache_folder_of_a_kernel_is_its_place_in_the_package_not_its_path():
+    from numba.core.caching import CacheImpl
+
+    from impactnet.models.box import kernels
+
+    locator = CacheImpl._locator_classes[0].from_function(kernels.solve_pair.py_func,
+                                                          kernels.__file__)
+    assert Path(locator.get_cache_path()) == compiled.cache_folder() / "models" / "box"
