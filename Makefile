@@ -19,12 +19,21 @@ PIP := $(PY) -m pip
 STAMP_RUNTIME := $(VENV)/.stamp-runtime
 STAMP_DEV := $(VENV)/.stamp-train-dev-torch$(TORCH_VERSION)
 
-# pytest exits 5 when it collects no test at all (an empty or not-yet-written suite): that is
-# not a failure of the suite. Every other non-zero status is.
+# Parallel test workers (pytest-xdist, one test file per worker at a time): the cores, at most 4
+# (0: no workers, in this process).
+TEST_WORKERS ?= $(shell n=$$(nproc 2>/dev/null || echo 1); echo $$(( n < 4 ? n : 4 )))
+
+# Two passes over the tests that the marker expression $(1) selects: the parallel workers take
+# all but the `exclusive` ones (wall-clock figures of real servers: tests/conftest.py), which run
+# alone afterwards. pytest exits 5 when a pass collects no test at all: that is not a failure of
+# the suite. Every other non-zero status is; both passes run either way.
 define run_pytest
-	@set +e; $(PY) -m pytest $(1) $(PYTEST_ARGS); rc=$$?; \
-	if [ $$rc -eq 5 ]; then echo "pytest: no tests collected (exit 5), treated as success"; exit 0; fi; \
-	exit $$rc
+	@set +e; status=0; \
+	for pass in "-n $(TEST_WORKERS) --dist loadfile -m '$(1)not exclusive'" "-m '$(1)exclusive'"; do \
+		eval $(PY) -m pytest $$pass $(PYTEST_ARGS); rc=$$?; \
+		if [ $$rc -eq 5 ]; then echo "pytest: no tests collected (exit 5), treated as success"; rc=0; fi; \
+		if [ $$rc -ne 0 ]; then status=$$rc; fi; \
+	done; exit $$status
 endef
 
 .PHONY: run test test-fast bench lint install install-dev clean distclean
@@ -60,7 +69,7 @@ test: $(STAMP_DEV)
 	$(call run_pytest,)
 
 test-fast: $(STAMP_DEV)
-	$(call run_pytest,-m "not slow")
+	$(call run_pytest,not slow and )
 
 bench: $(STAMP_DEV)
 	$(VENV)/bin/impactnet bench

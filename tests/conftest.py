@@ -3,6 +3,8 @@
 Markers (declared in pyproject.toml):
 - ``slow``: long fuzz / load tests. ``make test`` (and CI) runs them; ``make test-fast`` skips
   them with ``-m "not slow"``.
+- ``exclusive``: every test under :data:`EXCLUSIVE_FOLDERS` (marked here, at collection).
+  ``make test`` runs the other tests in parallel workers (pytest-xdist), then these alone.
 
 PostgreSQL: the sweep tests start a throwaway server themselves
 (``tests/training/conftest.py::postgres_server_url``), or use the one that
@@ -14,6 +16,14 @@ vary in time with the machine's load; ``HYPOTHESIS_PROFILE=ci`` additionally der
 from __future__ import annotations
 
 import os
+from pathlib import Path
+
+import pytest
+
+#: Folders (under tests/) whose tests hold real servers to wall-clock figures: /healthz's p99
+#: under hostile load, the memory budget, deadlines and drains of a fleet. They run alone, after
+#: the parallel workers, so that a neighbour's load never moves their figures.
+EXCLUSIVE_FOLDERS = ("service/hostile", "fleet")
 
 #: An existing PostgreSQL server for the sweep tests (else they start their own).
 POSTGRES_URL_ENV = "IMPACTNET_TEST_POSTGRES_URL"
@@ -29,3 +39,13 @@ if _hypothesis_settings is not None:
         "ci", parent=_hypothesis_settings.get_profile("impactnet"), derandomize=True
     )
     _hypothesis_settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "impactnet"))
+
+
+@pytest.hookimpl(tryfirst=True)  # before ``-m`` selects by marker
+def pytest_collection_modifyitems(config, items):
+    """Mark the tests of :data:`EXCLUSIVE_FOLDERS` ``exclusive``."""
+    root = Path(__file__).resolve().parent
+    for item in items:
+        folder = Path(item.path).resolve().parent.relative_to(root).as_posix()
+        if any(folder == f or folder.startswith(f + "/") for f in EXCLUSIVE_FOLDERS):
+            item.add_marker(pytest.mark.exclusive)
