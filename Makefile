@@ -24,12 +24,12 @@ STAMP_DEV := $(VENV)/.stamp-train-dev-torch$(TORCH_VERSION)
 TEST_WORKERS ?= $(shell n=$$(nproc 2>/dev/null || echo 1); echo $$(( n < 4 ? n : 4 )))
 
 # Two passes over the tests that the marker expression $(1) selects: the parallel workers take
-# all but the `exclusive` ones (wall-clock figures of real servers: tests/conftest.py), which run
-# alone afterwards. pytest exits 5 when a pass collects no test at all: that is not a failure of
+# all but the `serial` ones (wall-clock figures of real servers, and schemathesis, whose items
+# the workers cannot share: tests/conftest.py), which run in one process afterwards. pytest exits 5 when a pass collects no test at all: that is not a failure of
 # the suite. Every other non-zero status is; both passes run either way.
 define run_pytest
 	@set +e; status=0; \
-	for pass in "-n $(TEST_WORKERS) --dist loadfile -m '$(1)not exclusive'" "-m '$(1)exclusive'"; do \
+	for pass in "-n $(TEST_WORKERS) --dist loadfile -m '$(1)not serial'" "-m '$(1)serial'"; do \
 		eval $(PY) -m pytest $$pass $(PYTEST_ARGS); rc=$$?; \
 		if [ $$rc -eq 5 ]; then echo "pytest: no tests collected (exit 5), treated as success"; rc=0; fi; \
 		if [ $$rc -ne 0 ]; then status=$$rc; fi; \

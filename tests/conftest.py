@@ -3,8 +3,8 @@
 Markers (declared in pyproject.toml):
 - ``slow``: long fuzz / load tests. ``make test`` (and CI) runs them; ``make test-fast`` skips
   them with ``-m "not slow"``.
-- ``exclusive``: every test under :data:`EXCLUSIVE_FOLDERS` (marked here, at collection).
-  ``make test`` runs the other tests in parallel workers (pytest-xdist), then these alone.
+- ``serial``: every test under :data:`SERIAL_PATHS` (marked here, at collection). ``make test``
+  runs the other tests in parallel workers (pytest-xdist), then these in one process, alone.
 
 PostgreSQL: the sweep tests start a throwaway server themselves
 (``tests/training/conftest.py::postgres_server_url``), or use the one that
@@ -20,10 +20,12 @@ from pathlib import Path
 
 import pytest
 
-#: Folders (under tests/) whose tests hold real servers to wall-clock figures: /healthz's p99
-#: under hostile load, the memory budget, deadlines and drains of a fleet. They run alone, after
-#: the parallel workers, so that a neighbour's load never moves their figures.
-EXCLUSIVE_FOLDERS = ("service/hostile", "fleet")
+#: Tests (paths under tests/: folders end with "/") that run in one process, alone, after the
+#: parallel workers: those that hold real servers to wall-clock figures (/healthz's p99 under
+#: hostile load, the memory budget, deadlines and drains of a fleet), so that a neighbour's load
+#: never moves their figures; and schemathesis's, whose items of one test share a node id (one
+#: per API operation), which pytest-xdist cannot hand out: there they pass without running.
+SERIAL_PATHS = ("service/hostile/", "fleet/", "service/test_schemathesis.py")
 
 #: An existing PostgreSQL server for the sweep tests (else they start their own).
 POSTGRES_URL_ENV = "IMPACTNET_TEST_POSTGRES_URL"
@@ -43,9 +45,17 @@ if _hypothesis_settings is not None:
 
 @pytest.hookimpl(tryfirst=True)  # before ``-m`` selects by marker
 def pytest_collection_modifyitems(config, items):
-    """Mark the tests of :data:`EXCLUSIVE_FOLDERS` ``exclusive``."""
+    """Mark the tests of :data:`SERIAL_PATHS` ``serial``; refuse to run when tests outside
+    them share a node id (parallel workers would drop all but one of them, unreported)."""
     root = Path(__file__).resolve().parent
+    seen, shared = set(), set()
     for item in items:
-        folder = Path(item.path).resolve().parent.relative_to(root).as_posix()
-        if any(folder == f or folder.startswith(f + "/") for f in EXCLUSIVE_FOLDERS):
-            item.add_marker(pytest.mark.exclusive)
+        path = Path(item.path).resolve().relative_to(root).as_posix()
+        if any(path.startswith(p) for p in SERIAL_PATHS):
+            item.add_marker(pytest.mark.serial)
+        elif item.nodeid in seen:
+            shared.add(item.nodeid)
+        seen.add(item.nodeid)
+    if shared:
+        raise pytest.UsageError(f"tests share a node id, so parallel workers cannot run them: "
+                                f"{sorted(shared)[:5]}; add them to SERIAL_PATHS")
