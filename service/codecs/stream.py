@@ -24,6 +24,9 @@ log = logging.getLogger("impactnet.service")
 
 #: Bytes of text gathered into one piece (one thread hop, one send).
 PIECE_BYTES = 1 << 20
+#: Answers of up to this many rows and part contacts together are encoded at once (in a worker
+#: thread) and sent with their length; larger ones are streamed.
+WHOLE_ROWS = 16_384
 
 
 def json_pieces(head: bytes, columns: Iterable, tail: bytes) -> Iterator[bytes]:
@@ -86,8 +89,7 @@ def npz_pieces(members: Iterable) -> Iterator[bytes]:
                     out.write(np.ascontiguousarray(part, dtype=dtype).tobytes())
                     if sink.pending >= PIECE_BYTES:
                         yield sink.take()
-            yield sink.take()
-    yield sink.take()
+    yield sink.take()  # the last members and the central directory
 
 
 class StreamedAnswer(Response):
@@ -113,3 +115,13 @@ class StreamedAnswer(Response):
         except TimeoutError:  # the server closes the connection: the answer is incomplete
             log.warning("answer not taken in time: connection closed",
                         extra={"send_timeout_s": self.send_timeout_s})
+
+
+async def answer_response(work, pieces: Iterator[bytes], rows: int, headers: dict[str, str],
+                          send_timeout_s: float, media_type: str) -> Response:
+    """The answer of ``rows`` rows and part contacts: encoded whole in one worker thread (under
+    the request's ``work`` limit) up to :data:`WHOLE_ROWS`, else streamed piece by piece."""
+    if rows <= WHOLE_ROWS:
+        whole = await work.run(rows, b"".join, pieces)
+        return Response(whole, media_type=media_type, headers=headers)
+    return StreamedAnswer(pieces, headers, send_timeout_s, media_type)

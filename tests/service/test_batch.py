@@ -313,8 +313,8 @@ def test_a_streamed_json_answer_equals_the_npz_answer(client):
     """More than STREAM_ROWS pairs: the JSON answer is streamed in pieces, solved in chunks of
     CHUNK_ROWS, and carries the same values as the npz answer and the exact solver."""
     from impactnet.models.compiled import CHUNK_ROWS
-    from impactnet.service.api.routers.batch import WHOLE_ROWS
     from impactnet.service.codecs.answers import STREAM_ROWS
+    from impactnet.service.codecs.stream import WHOLE_ROWS
 
     n = CHUNK_ROWS + STREAM_ROWS + 17
     assert n > WHOLE_ROWS  # too large to be encoded whole

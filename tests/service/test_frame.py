@@ -116,6 +116,8 @@ def test_npz_and_json_frames_carry_the_same_pairs_and_members(detail):
                            headers={"content-type": "application/x-npz",
                                     "accept": "application/x-npz"})
     assert response.status_code == 200, response.text
+    # A small answer is encoded whole, in one worker thread, and sent with its length.
+    assert int(response.headers["content-length"]) == len(response.content)
     with np.load(io.BytesIO(response.content), allow_pickle=False) as npz:
         members = {k: npz[k] for k in npz.files}
     assert [(p["a"], p["b"]) for p in answer["pairs"]] == list(zip(

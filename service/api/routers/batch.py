@@ -12,16 +12,13 @@ from impactnet.service.api.routers import ERRORS, MOVED
 from impactnet.service.api.schemas import BatchResponse, EulerConvention, Include, Mode
 from impactnet.service.codecs import columns as col
 from impactnet.service.codecs.answers import batch_json, batch_npz
-from impactnet.service.codecs.stream import StreamedAnswer
+from impactnet.service.codecs.stream import answer_response
 from impactnet.service.errors import ServiceError
 from impactnet.service.limits.body import LEASE
 from impactnet.service.limits.lanes import Work
 from impactnet.service.solve import solve
 
 router = APIRouter(tags=["contact"])
-#: Answers of up to this many rows and part contacts together are encoded at once (in a worker
-#: thread); larger ones are streamed.
-WHOLE_ROWS = 16_384
 
 LAYOUT = """
 **Binary layout** (`Content-Type: application/x-npz` request, `Accept: application/x-npz`
@@ -118,12 +115,10 @@ async def batch(
         runtime.metrics.record_answers(chosen, answers)
         encode = batch_npz if answer_type == col.NPZ else batch_json
         pieces = encode(answers, pairs, options.include, chosen, state.model_version)
-        if len(answers) + len(answers.contacts["depth"]) <= WHOLE_ROWS:
-            whole = await work.run(len(answers), b"".join, pieces)
-            return Response(whole, media_type=answer_type,
-                            headers={"X-Model-Version": state.model_version})
-    return StreamedAnswer(pieces, {"X-Model-Version": state.model_version},
-                          settings.send_timeout_s, answer_type)
+        return await answer_response(work, pieces,
+                                     len(answers) + len(answers.contacts["depth"]),
+                                     {"X-Model-Version": state.model_version},
+                                     settings.send_timeout_s, answer_type)
 
 
 @router.post("/v1/contact/batch", include_in_schema=False)

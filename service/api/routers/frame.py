@@ -16,7 +16,7 @@ from impactnet.service.api.routers.batch import media_type, response_type
 from impactnet.service.api.schemas import EulerConvention, Include, Mode
 from impactnet.service.codecs import columns as col
 from impactnet.service.codecs.frame_answers import frame_json, frame_npz
-from impactnet.service.codecs.stream import StreamedAnswer
+from impactnet.service.codecs.stream import answer_response
 from impactnet.service.errors import ServiceError
 from impactnet.service.limits.body import LEASE
 from impactnet.service.limits.lanes import Work
@@ -100,7 +100,9 @@ async def frame(
                                   chosen, state.model_version, options.world, notes)
             return Response(text, media_type=col.JSON, headers=headers)
         pieces = frame_npz(result, options.include, chosen, state.model_version)
-    return StreamedAnswer(pieces, headers, settings.send_timeout_s, answer_type)
+        rows = len(result.answers) + len(result.answers.contacts["depth"])
+        return await answer_response(work, pieces, rows, headers, settings.send_timeout_s,
+                                     answer_type)
 
 
 @router.post(
