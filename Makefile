@@ -24,8 +24,8 @@ STAMP_DEV := $(VENV)/.stamp-train-dev-torch$(TORCH_VERSION)
 TEST_WORKERS ?= $(shell n=$$(nproc 2>/dev/null || echo 1); echo $$(( n < 4 ? n : 4 )))
 
 # Two passes over the tests that the marker expression $(1) selects: the parallel workers take
-# all but the `serial` ones (wall-clock figures of real servers, and schemathesis, whose items
-# the workers cannot share: tests/conftest.py), which run in one process afterwards. pytest exits 5 when a pass collects no test at all: that is not a failure of
+# all but the `serial` ones (wall-clock figures of real servers: tests/conftest.py), which run
+# in one process afterwards. pytest exits 5 when a pass collects no test at all: that is not a failure of
 # the suite. Every other non-zero status is; both passes run either way.
 define run_pytest
 	@set +e; status=0; \

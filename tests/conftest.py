@@ -23,9 +23,8 @@ import pytest
 #: Tests (paths under tests/: folders end with "/") that run in one process, alone, after the
 #: parallel workers: those that hold real servers to wall-clock figures (/healthz's p99 under
 #: hostile load, the memory budget, deadlines and drains of a fleet), so that a neighbour's load
-#: never moves their figures; and schemathesis's, whose items of one test share a node id (one
-#: per API operation), which pytest-xdist cannot hand out: there they pass without running.
-SERIAL_PATHS = ("service/hostile/", "fleet/", "service/test_schemathesis.py")
+#: never moves their figures.
+SERIAL_PATHS = ("service/hostile/", "fleet/")
 
 #: An existing PostgreSQL server for the sweep tests (else they start their own).
 POSTGRES_URL_ENV = "IMPACTNET_TEST_POSTGRES_URL"
@@ -46,7 +45,9 @@ if _hypothesis_settings is not None:
 @pytest.hookimpl(tryfirst=True)  # before ``-m`` selects by marker
 def pytest_collection_modifyitems(config, items):
     """Mark the tests of :data:`SERIAL_PATHS` ``serial``; refuse to run when tests outside
-    them share a node id (parallel workers would drop all but one of them, unreported)."""
+    them share a node id: parallel workers report such items passed without running them (the
+    items one schemathesis function makes, one per API operation, did: test_schemathesis.py
+    now has a function per operation)."""
     root = Path(__file__).resolve().parent
     seen, shared = set(), set()
     for item in items:

@@ -59,10 +59,26 @@ def test_the_app_serves_the_learned_modes_and_the_admin_route():
     assert "/v1/admin/reload" in APP.openapi()["paths"]
 
 
-@schema.parametrize()
-@settings(max_examples=100, deadline=None, suppress_health_check=HEALTH)
-def test_api_conforms(case):
-    case.call_and_validate(checks=CHECKS)
+def _conforming(selected, examples: int):
+    """A test of the operations of ``selected`` over ``examples`` generated cases each."""
+    @selected.parametrize()
+    @settings(max_examples=examples, deadline=None, suppress_health_check=HEALTH)
+    def test(case):
+        case.call_and_validate(checks=CHECKS)
+
+    return test
+
+
+# One test function per operation, so that every test item has a node id of its own: the items
+# one schemathesis function makes share its node id, and parallel workers (pytest-xdist) then
+# report them passed without running them.
+OPERATIONS = sorted((r.ok().method.upper(), r.ok().path) for r in schema.get_all_operations())
+for _method, _path in OPERATIONS:
+    _name = f"{_method}{_path}".lower().replace("/", "_")
+    globals()[f"test_api_conforms_{_name}"] = _conforming(
+        schema.include(method=_method, path=_path), 100)
+    globals()[f"test_api_conforms_long_{_name}"] = pytest.mark.slow(_conforming(
+        schema.include(method=_method, path=_path), 1000))
 
 
 @admin_schema.parametrize()
@@ -70,10 +86,3 @@ def test_api_conforms(case):
 def test_admin_reload_with_the_token_conforms(case):
     case.call_and_validate(headers={"Authorization": f"Bearer {TOKEN}"}, checks=CHECKS)
     assert APP.state.runtime.serving.model_version == "svc-test-1"  # never another bundle
-
-
-@pytest.mark.slow
-@schema.parametrize()
-@settings(max_examples=1000, deadline=None, suppress_health_check=HEALTH)
-def test_api_conforms_long(case):
-    case.call_and_validate(checks=CHECKS)
