@@ -81,10 +81,9 @@ def _solve(dispatcher, plan, caps: Caps):
 
 
 def _inline(dispatcher, pairs, mode, include, margin, caps, lease):
-    """The three steps at once (a single box pair)."""
-    plan = _count(dispatcher, _plan(dispatcher, pairs, mode, include, margin, caps), caps,
-                  lease)
-    return _solve(dispatcher, plan, caps)
+    """The three steps at once, in this thread (a single box pair)."""
+    return _steps(dispatcher, pairs, None, False, (mode, include, margin), caps, lease,
+                  lambda cost: True)[2]
 
 
 def solve_now(dispatcher, pairs, mode: str, include, margin: float, settings):

@@ -134,15 +134,10 @@ def columns(a: Answers, pairs: Pairs, include) -> list[Column]:
 
 def _json(values) -> bytes:
     """A slice as JSON text without its brackets: non-finite floats and missing names null."""
-    numpy = orjson.OPT_SERIALIZE_NUMPY
-    if isinstance(values, np.ndarray) and values.dtype.kind in "biuf":
-        if values.dtype.kind != "f" or np.isfinite(values).all():
-            return orjson.dumps(values, option=numpy)[1:-1]
-        known = np.isfinite(values).reshape(len(values), -1).all(axis=1)
-        rows = [row if ok else None  # a row with a NaN or inf: one null
-                for row, ok in zip(values.tolist(), known.tolist(), strict=True)]
-        return orjson.dumps(rows)[1:-1]
-    return orjson.dumps(np.asarray(values, dtype=object).tolist())[1:-1]
+    if (isinstance(values, np.ndarray) and values.dtype.kind in "biuf"
+            and (values.dtype.kind != "f" or np.isfinite(values).all())):
+        return orjson.dumps(values, option=orjson.OPT_SERIALIZE_NUMPY)[1:-1]
+    return orjson.dumps(_python(values))[1:-1]  # null rows, names
 
 
 def _slices(column: Column) -> Iterator:
@@ -212,8 +207,8 @@ def _put(target: dict, path: tuple, value) -> None:
 
 
 def _python(values) -> list:
-    """A slice as JSON-ready Python values, as :func:`_json` writes them: a row with a NaN or
-    inf is None, missing names None."""
+    """A slice as JSON-ready Python values (what :func:`_json` writes): a row with a NaN or
+    inf is one None, missing names None."""
     if isinstance(values, np.ndarray) and values.dtype.kind in "biuf":
         listed = values.tolist()
         if values.dtype.kind == "f" and not np.isfinite(values).all():

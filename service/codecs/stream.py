@@ -117,10 +117,12 @@ class StreamedAnswer(Response):
                         extra={"send_timeout_s": self.send_timeout_s})
 
 
-async def answer_response(work, pieces: Iterator[bytes], rows: int, headers: dict[str, str],
+async def answer_response(work, pieces: Iterator[bytes], answers, headers: dict[str, str],
                           send_timeout_s: float, media_type: str) -> Response:
-    """The answer of ``rows`` rows and part contacts: encoded whole in one worker thread (under
-    the request's ``work`` limit) up to :data:`WHOLE_ROWS`, else streamed piece by piece."""
+    """The encoded ``pieces`` of ``answers`` (:class:`~impactnet.models.dispatch.Answers`):
+    encoded whole in one worker thread (under the request's ``work`` limit) where their rows
+    and part contacts number at most :data:`WHOLE_ROWS`, else streamed piece by piece."""
+    rows = len(answers) + len(answers.contacts["depth"])
     if rows <= WHOLE_ROWS:
         whole = await work.run(rows, b"".join, pieces)
         return Response(whole, media_type=media_type, headers=headers)

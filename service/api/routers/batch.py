@@ -115,8 +115,7 @@ async def batch(
         runtime.metrics.record_answers(chosen, answers)
         encode = batch_npz if answer_type == col.NPZ else batch_json
         pieces = encode(answers, pairs, options.include, chosen, state.model_version)
-        return await answer_response(work, pieces,
-                                     len(answers) + len(answers.contacts["depth"]),
+        return await answer_response(work, pieces, answers,
                                      {"X-Model-Version": state.model_version},
                                      settings.send_timeout_s, answer_type)
 

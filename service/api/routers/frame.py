@@ -100,9 +100,8 @@ async def frame(
                                   chosen, state.model_version, options.world, notes)
             return Response(text, media_type=col.JSON, headers=headers)
         pieces = frame_npz(result, options.include, chosen, state.model_version)
-        rows = len(result.answers) + len(result.answers.contacts["depth"])
-        return await answer_response(work, pieces, rows, headers, settings.send_timeout_s,
-                                     answer_type)
+        return await answer_response(work, pieces, result.answers, headers,
+                                     settings.send_timeout_s, answer_type)
 
 
 @router.post(
