@@ -85,13 +85,40 @@ class Answers:
         return str(self.predictor_names[self.predictor[i]])
 
 
+class _BodyColumns(dict):
+    """Body-level columns (:data:`BODY_COLUMNS`) of n rows, each made when first read or
+    written: a column that one slice fills whole is that slice's array, never copied into one
+    filled first (a single pair's answer would otherwise allocate and fill them all)."""
+
+    _SPEC = {name: (dtype, shape, fill) for name, dtype, shape, fill in BODY_COLUMNS}
+
+    def __init__(self, n: int) -> None:
+        super().__init__()
+        self.n = n
+
+    def __missing__(self, name: str) -> np.ndarray:
+        dtype, shape, fill = self._SPEC[name]
+        column = self[name] = np.full((self.n, *shape), fill, dtype)
+        return column
+
+    def put(self, name: str, rows: np.ndarray, values) -> None:
+        """Column ``name`` at ``rows`` (k,) (sorted, distinct) = ``values`` (k, ...)."""
+        if name not in self and len(rows) == self.n:  # every row, in order: take the array
+            dtype, shape, _ = self._SPEC[name]
+            whole = values if type(values) is np.ndarray and values.dtype == dtype else \
+                np.asarray(values, dtype)
+            if whole.shape == (self.n, *shape) and whole.flags.writeable:
+                self[name] = whole
+                return
+        self[name][rows] = values
+
+
 class Pieces:
     """Answers of slices of rows, merged once at the end (:meth:`merged`)."""
 
     def __init__(self, n: int, manifold: bool = False) -> None:
         self.n, self.manifold = n, manifold
-        self.body = {name: np.full((n, *shape), fill, dtype)
-                     for name, dtype, shape, fill in BODY_COLUMNS}
+        self.body = _BodyColumns(n)
         self.predictor = np.zeros(n, np.int8)
         self.predictor_names: list[str] = ["exact"]
         self.part_names: list[str] = []
@@ -117,7 +144,8 @@ class Pieces:
 
     def predictor_codes(self, names) -> np.ndarray:
         """Codes (k,) of predictor names (k,) or of one name."""
-        names = np.atleast_1d(np.asarray(names))
+        if type(names) is not np.ndarray or names.ndim != 1:
+            names = np.atleast_1d(np.asarray(names))
         if not len(names):
             return np.zeros(0, np.int8)
         if len(names) == 1 or (names == names[0]).all():  # one predictor: no sort
@@ -135,9 +163,11 @@ class Pieces:
     def add(self, rows: np.ndarray, body: dict, predictor, contact_rows: np.ndarray,
             columns: dict) -> None:
         """One slice: its request rows (k,), body-level values (name -> (k, ...)), predictor
-        names, and its part contacts: their request rows (c,) and columns (name -> (c, ...))."""
+        names, and its part contacts: their request rows (c,) and columns (name -> (c, ...)).
+        The arrays are handed over: a body column that this slice fills whole is kept as
+        given, so a caller passes arrays it does not use again."""
         for name, values in body.items():
-            self.body[name][rows] = values
+            self.body.put(name, rows, values)
         self.predictor[rows] = self.predictor_codes(predictor)
         self.rows.append(np.asarray(contact_rows, np.int64))
         self.columns.append(columns)
@@ -145,13 +175,13 @@ class Pieces:
 
     def merged(self) -> Answers:
         """The answers, part contacts in row order (request order, then the deepest first)."""
-        row = np.concatenate(self.rows) if self.rows else np.zeros(0, np.int64)
-        depth = (np.concatenate([c["depth"] for c in self.columns]) if self.columns
-                 else np.zeros(0))
+        row = (self.rows[0] if len(self.rows) == 1 else np.concatenate(self.rows) if self.rows
+               else np.zeros(0, np.int64))
         # rows in request order, the deepest first; already so where every row has at most
         # one contact and they come in order (box pairs)
-        ordered = bool((row[1:] > row[:-1]).all())
-        order = None if ordered else np.lexsort((-depth, row))
+        ordered = len(row) < 2 or bool((row[1:] > row[:-1]).all())
+        order = None if ordered else np.lexsort(
+            (-np.concatenate([c["depth"] for c in self.columns]), row))
         wanted = CONTACT_COLUMNS + (MANIFOLD_COLUMNS if self.manifold else ())
         contacts = {}
         for name, dtype, shape in wanted:
@@ -163,6 +193,7 @@ class Pieces:
         offsets = np.zeros(self.n + 1, np.int64)
         np.cumsum(np.bincount(row, minlength=self.n), out=offsets[1:])
         self.rows, self.columns = [], []
-        return Answers(self.body, self.predictor, np.asarray(self.predictor_names), offsets,
+        body = {name: self.body[name] for name, *_ in BODY_COLUMNS}
+        return Answers(body, self.predictor, np.asarray(self.predictor_names), offsets,
                        contacts, np.asarray(self.part_names, dtype=str), tuple(self.shapes),
                        np.asarray(self.part_index, np.int64))

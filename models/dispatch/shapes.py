@@ -20,6 +20,9 @@ from impactnet.models.geometry import box_features as bf
 
 #: The name of a box body's one part.
 BOX_PART = "box"
+#: (name, kind) of every box feature id (named once, at import).
+BOX_FEATURES = tuple((str(bf.feature_name(i)), str(bf.feature_kind(i)))
+                     for i in range(bf.N_FEATURES))
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +74,7 @@ class Shape:
         if feature < 0:
             return "none", "none"
         if isinstance(self.parts[part], BoxPart):
-            return str(bf.feature_name(feature)), str(bf.feature_kind(feature))
+            return BOX_FEATURES[feature]
         hull = body_table(self.parts).hulls[part]
         faces, edges = hull.n_faces, hull.n_edges
         if feature < faces:
@@ -117,15 +120,17 @@ class ShapeTable:
     def __init__(self, shapes) -> None:
         self.shapes = shapes  # a tuple, or Shapes (its box sizes read as a column)
         named = tuple(shapes.named) if isinstance(shapes, Shapes) else tuple(shapes)
-        sizes = shapes.box_sizes if isinstance(shapes, Shapes) else np.zeros((0, 3))
-        box = np.fromiter((s.is_box for s in named), bool, len(named))
-        size = np.ones((len(named), 3))
-        for k in np.flatnonzero(box).tolist():
-            size[k] = named[k].parts[0].size
-        parts = np.fromiter((len(s.parts) for s in named), np.int64, len(named))
-        self.is_box = np.concatenate([box, np.ones(len(sizes), bool)])  # (s,) bool: a box
-        self.size = np.concatenate([size, sizes])  # (s, 3) a box's edge lengths, m; else 1
-        self.parts = np.concatenate([parts, np.ones(len(sizes), np.int64)])  # (s,) parts
+        box = [s.is_box for s in named]
+        size = np.array([s.parts[0].size if b else (1.0, 1.0, 1.0) for s, b in zip(named, box)],
+                        np.float64).reshape(len(named), 3)
+        self.is_box = np.array(box, bool)  # (s,) bool: a box
+        self.size = size  # (s, 3) a box's edge lengths, m; else 1
+        self.parts = np.array([len(s.parts) for s in named], np.int64)  # (s,) parts
+        if isinstance(shapes, Shapes) and len(shapes.box_sizes):  # raw sizes: boxes, after
+            sizes = shapes.box_sizes
+            self.is_box = np.concatenate([self.is_box, np.ones(len(sizes), bool)])
+            self.size = np.concatenate([size, sizes])
+            self.parts = np.concatenate([self.parts, np.ones(len(sizes), np.int64)])
 
     @cached_property
     def spheres(self) -> tuple[np.ndarray, np.ndarray]:
@@ -170,10 +175,13 @@ class Pairs:
         return ShapeTable(self.shapes)
 
     def column(self, name: str) -> np.ndarray:
-        """Column ``name`` broadcast to n rows (a read-only view, made once)."""
+        """Column ``name`` with n rows: the column itself where it has them, else broadcast (a
+        read-only view, made once). Read, never written."""
+        values = getattr(self, name)
+        if len(values) == self.n:
+            return values
         found = self._columns.get(name)
         if found is None:
-            values = getattr(self, name)
             found = self._columns[name] = np.broadcast_to(values, (self.n,) + values.shape[1:])
         return found
 

@@ -34,6 +34,8 @@ from impactnet.models.work import checkpoint
 
 #: Predictor name of the compound oracle's rows.
 ORACLE = "oracle"
+#: No per-pose contact counts (box rows: one contact at most each).
+_NO_COUNTS = np.zeros(0, np.int64)
 
 
 class Dispatcher:
@@ -111,10 +113,10 @@ def _contact_columns(c, rows, code_a, code_b, manifold: bool) -> dict:
     """Part-contact columns of `Contacts` rows ``rows`` (their parts' codes given)."""
     out = {"part_a": code_a, "part_b": code_b, "point": c.point[rows],
            "normal": c.normal[rows], "depth": c.depth[rows],
-           "contact_type": c.contact_type_code[rows].astype(np.int8),
-           "feature_a": c.feature_a[rows].astype(np.int32),
-           "feature_b": c.feature_b[rows].astype(np.int32),
-           "axis": c.axis[rows].astype(np.int8), "pressure": c.pressure[rows]}
+           "contact_type": c.contact_type_code[rows].astype(np.int8, copy=False),
+           "feature_a": c.feature_a[rows].astype(np.int32, copy=False),
+           "feature_b": c.feature_b[rows].astype(np.int32, copy=False),
+           "axis": c.axis[rows].astype(np.int8, copy=False), "pressure": c.pressure[rows]}
     if manifold:
         out |= {"manifold_count": c.manifold_count[rows],
                 "manifold_points": c.manifold_points[rows],
@@ -133,33 +135,37 @@ def _box_codes(pieces: Pieces, pairs) -> np.ndarray:
 
 
 def _box_rows(pieces: Pieces, plan: plans.Plan, predictor, caps: plans.Caps) -> None:
-    """The box rows through the box chain, in chunks (one contact per touching pair)."""
+    """The box rows through the box chain, in chunks (one contact per touching pair); a
+    chunk of one row goes in as vectors (the predictors' one-pair entry: fewest NumPy calls)."""
     pairs, rows = plan.pairs, plan.box_rows
     sizes = pairs.table.size
-    code = _box_codes(pieces, pairs)
     index_a, index_b = pairs.column("shape_a"), pairs.column("shape_b")
+    code = pieces.codes_of(pairs.shapes[int(index_a[rows[0]])])[0]  # every box's part code
     unsupported: list[np.ndarray] = []
+    every = len(rows) == len(pairs)  # every row is a box pair: chunks are slices
     for start, stop in chunks(len(rows), CHUNK_ROWS):
         at = rows[start:stop]
-        p_a, q_a, p_b, q_b = pairs.poses(at)
+        take = slice(start, stop) if every else at
+        p_a, q_a, p_b, q_b = pairs.poses(take)
+        inputs = (sizes[index_a[take]], p_a, q_a, sizes[index_b[take]], p_b, q_b)
         try:
-            c = predictor(sizes[index_a[at]], p_a, q_a, sizes[index_b[at]], p_b, q_b)
+            c = predictor(*(v[0] for v in inputs) if len(at) == 1 else inputs)
         except UnsupportedPairError as exc:  # go on: the error names every such row
             unsupported.append(at[np.asarray(exc.rows, np.int64)])
             missing = exc
             continue
         hit = np.flatnonzero(c.colliding)
-        _check_contacts(np.zeros(0), at, pieces.contacts + len(hit), caps)
-        parts_a = np.where(c.colliding, code[index_a[at]], -1)
-        parts_b = np.where(c.colliding, code[index_b[at]], -1)
+        _check_contacts(_NO_COUNTS, at, pieces.contacts + len(hit), caps)
+        parts = np.where(c.colliding, np.int32(code), np.int32(-1))
+        hit_parts = parts[hit]
         body = {"colliding": c.colliding, "point": c.point, "normal": c.normal,
                 "depth": c.depth, "contact_type": c.contact_type_code,
-                "feature_a": c.feature_a, "feature_b": c.feature_b, "part_a": parts_a,
-                "part_b": parts_b, "cluster_size": c.colliding.astype(np.int64),
+                "feature_a": c.feature_a, "feature_b": c.feature_b, "part_a": parts,
+                "part_b": parts.copy(), "cluster_size": c.colliding.astype(np.int64),
                 "confidence": c.confidence,
                 "distance": np.where(c.colliding, -c.depth, np.inf)}
         pieces.add(at, body, c.predictor, at[hit],
-                   _contact_columns(c, hit, parts_a[hit], parts_b[hit], pieces.manifold))
+                   _contact_columns(c, hit, hit_parts, hit_parts.copy(), pieces.manifold))
     if unsupported:  # a strict learned mode without a model for these box sizes
         raise UnsupportedPairError(np.concatenate(unsupported), missing.pairs, plan.mode)
 

@@ -27,10 +27,13 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from itertools import chain
+from math import isfinite
 
 import numpy as np
 import orjson
 
+from impactnet.models.contacts import CONTACT_TYPES
 from impactnet.models.dispatch import Answers, Pairs
 from impactnet.models.dispatch.answers import CONTACT_NAMES
 from impactnet.service.codecs import features as ft
@@ -62,13 +65,14 @@ def _names(table: np.ndarray, codes: np.ndarray) -> np.ndarray:
     return out
 
 
-def _feature_columns(a: Answers, prefix: tuple, parts, ids, rows, body: bool, tables) -> list:
+def _feature_columns(a: Answers, prefix: tuple, parts, ids, rows, body: bool,
+                     label: ft.Labeller) -> list:
     last: dict = {}  # the labels of the last slice read: names and kinds labelled once
 
     def labelled(start, stop):
         if last.get("slice") != (start, stop):
             last["slice"] = (start, stop)
-            last["labels"] = ft.labels(a, parts[start:stop], ids[start:stop], tables)
+            last["labels"] = ft.labels(label, parts[start:stop], ids[start:stop])
         return last["labels"]
 
     def names(start, stop):
@@ -87,7 +91,7 @@ def _feature_columns(a: Answers, prefix: tuple, parts, ids, rows, body: bool, ta
 def columns(a: Answers, pairs: Pairs, include) -> list[Column]:
     """Every column of the answer, in order (module docstring)."""
     n, m, b, c = len(a), len(a.contacts["depth"]), a.body, a.contacts
-    tables = ft.tables_of(a)
+    label = ft.Labeller(a)
     out = [Column(("colliding",), n, lambda s, e: b["colliding"][s:e], "|b1"),
            Column(("point",), n, lambda s, e: b["point"][s:e], "<f8", (3,)),
            Column(("normal",), n, lambda s, e: b["normal"][s:e], "<f8", (3,)),
@@ -99,7 +103,7 @@ def columns(a: Answers, pairs: Pairs, include) -> list[Column]:
                   TYPE_DTYPE)]
     for side in "ab":
         out += _feature_columns(a, (f"feature_{side}",), b[f"part_{side}"],
-                                b[f"feature_{side}"], n, True, tables)
+                                b[f"feature_{side}"], n, True, label)
     out += [Column(("predictor",), n, lambda s, e: a.predictor_names[a.predictor[s:e]],
                    PREDICTOR_DTYPE),
             Column(("confidence",), n, lambda s, e: b["confidence"][s:e], "<f8"),
@@ -119,7 +123,7 @@ def columns(a: Answers, pairs: Pairs, include) -> list[Column]:
                    lambda s, e: CONTACT_NAMES[c["contact_type"][s:e]], TYPE_DTYPE)]
     for side in "ab":
         out += _feature_columns(a, ("contacts", f"feature_{side}"), c[f"part_{side}"],
-                                c[f"feature_{side}"], m, False, tables)
+                                c[f"feature_{side}"], m, False, label)
     out += [Column(("contacts", "axis"), m, lambda s, e: c["axis"][s:e], "|i1"),
             Column(("contacts", "pressure"), m, lambda s, e: c["pressure"][s:e], "<f8")]
     if "manifold" in include:
@@ -200,12 +204,6 @@ def batch_npz(a: Answers, pairs: Pairs, include, mode: str, model_version: str,
     return npz_pieces(members())
 
 
-def _put(target: dict, path: tuple, value) -> None:
-    for key in path[:-1]:
-        target = target.setdefault(key, {})
-    target[path[-1]] = value
-
-
 def _python(values) -> list:
     """A slice as JSON-ready Python values (what :func:`_json` writes): a row with a NaN or
     inf is one None, missing names None."""
@@ -218,34 +216,80 @@ def _python(values) -> list:
     return np.asarray(values, dtype=object).tolist()
 
 
-def _listed(column: Column) -> list:
-    """A whole column as JSON-ready Python values (names, numbers, None)."""
-    if column.rows <= STREAM_ROWS:  # one slice (a single pair's answer)
-        return _python(column.read(0, column.rows))
-    return [value for v in _slices(column) for value in _python(v)]
+def _finite(values: np.ndarray) -> list:
+    """A column's rows (k, ...) as JSON-ready Python values: a float row holding a NaN or an
+    infinity is one None (as :func:`_python`), checked in Python: a single pair's answer has a
+    handful of values, and a NumPy call per column would cost more than the whole check."""
+    listed = values.tolist()
+    if values.dtype.kind != "f":
+        return listed
+    if values.ndim == 1:
+        return [v if isfinite(v) else None for v in listed]
+    flat = (lambda row: row) if values.ndim == 2 else (lambda row: chain.from_iterable(row))
+    return [row if all(map(isfinite, flat(row))) else None for row in listed]
+
+
+def _feature(label, part: int, feature_id: int) -> dict:
+    name, kind = label(part, feature_id)
+    return {"id": feature_id, "name": name, "kind": kind}
+
+
+def _contact_rows(a: Answers, label, include) -> list[dict]:
+    """Every part contact as a single pair's contact object (module docstring)."""
+    c = a.contacts
+    part_names = a.part_names.tolist()
+    part_a, part_b = c["part_a"].tolist(), c["part_b"].tolist()
+    feature_a, feature_b = c["feature_a"].tolist(), c["feature_b"].tolist()
+    point, normal, depth = _finite(c["point"]), _finite(c["normal"]), _finite(c["depth"])
+    types, axis, pressure = c["contact_type"].tolist(), c["axis"].tolist(), _finite(c["pressure"])
+    manifold = "manifold" in include
+    if manifold:
+        count = c["manifold_count"].tolist()
+        points, depths = _finite(c["manifold_points"]), _finite(c["manifold_depths"])
+    out = []
+    for j in range(len(depth)):
+        row = {"part_a": part_names[part_a[j]] if part_a[j] >= 0 else None,
+               "part_b": part_names[part_b[j]] if part_b[j] >= 0 else None,
+               "point": point[j], "normal": normal[j], "depth": depth[j],
+               "contact_type": CONTACT_TYPES[types[j]],
+               "feature_a": _feature(label, part_a[j], feature_a[j]),
+               "feature_b": _feature(label, part_b[j], feature_b[j]),
+               "axis": axis[j], "pressure": pressure[j]}
+        if manifold:
+            k = count[j]
+            row["manifold"] = {"count": k, "points": points[j][:k], "depths": depths[j][:k]}
+        out.append(row)
+    return out
 
 
 def rows_json(a: Answers, pairs: Pairs, include) -> list[dict]:
-    """Every row as a single pair's answer (module docstring), without mode and version:
-    each column converted once, then dealt out to the rows."""
-    out: list[dict] = [{} for _ in range(len(a))]
-    contacts: list[dict] = [{} for _ in range(len(a.contacts["depth"]))]
-    offsets = a.offsets.tolist()
-    for column in columns(a, pairs, include):
-        path = column.path
-        if path == ("contacts", "offsets"):
-            continue
-        values = _listed(column)
-        targets = contacts if path[0] == "contacts" else out
-        for target, value in zip(targets, values, strict=True):
-            _put(target, path[1:] if path[0] == "contacts" else path, value)
-    for row in contacts:
-        if "manifold_count" in row:
-            k = row.pop("manifold_count")
-            row["manifold"] = {"count": k, "points": row.pop("manifold_points")[:k],
-                               "depths": row.pop("manifold_depths")[:k]}
-    for i, row in enumerate(out):
+    """Every row as a single pair's answer (module docstring), without mode and version: the
+    keys and values of the batch's columns (:func:`columns`) for that row, in their order."""
+    b, label = a.body, ft.Labeller(a)
+    part_names = a.part_names.tolist()
+    contacts, offsets = _contact_rows(a, label, include), a.offsets.tolist()
+    listed = {k: _finite(b[k]) for k in ("colliding", "point", "normal", "depth", "distance",
+                                         "closest_a", "closest_b", "confidence",
+                                         "cluster_size")}
+    types, predictors = b["contact_type"].tolist(), a.predictor_names[a.predictor].tolist()
+    angles = _finite(paper_angles(a, pairs, 0, len(a))) if "paper_angles" in include else None
+    sides = [(f"feature_{s}", b[f"part_{s}"].tolist(), b[f"feature_{s}"].tolist())
+             for s in "ab"]
+    out = []
+    for i in range(len(a)):
+        row = {k: listed[k][i] for k in ("colliding", "point", "normal", "depth", "distance",
+                                         "closest_a", "closest_b")}
+        row["contact_type"] = CONTACT_TYPES[types[i]]
+        for key, parts, ids in sides:
+            part = parts[i]
+            row[key] = {"part": part_names[part] if part >= 0 else None,
+                        **_feature(label, part, ids[i])}
+        row |= {"predictor": predictors[i], "confidence": listed["confidence"][i],
+                "cluster_size": listed["cluster_size"][i]}
+        if angles is not None:
+            row["paper_angles"] = angles[i]
         row["contacts"] = contacts[offsets[i]:offsets[i + 1]]
+        out.append(row)
     return out
 
 

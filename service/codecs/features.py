@@ -1,6 +1,9 @@
-"""Features named for every part, vectorised: a box part's by the box's fixed ids (``face +z``,
+"""Features named for every part: a box part's by the box's fixed ids (``face +z``,
 ``edge x(+y,-z)``, ``vertex (+,-,+)``), a convex part's by its hull's ids (``face 3``,
 ``edge 17``, ``vertex 40``; faces first, then edges, then vertices), ``none`` for -1.
+
+The rule is :meth:`impactnet.models.dispatch.Shape.feature`; here it is applied once per
+distinct (part, id) of an answer (:class:`Labeller`), and to columns of them (:func:`labels`).
 
 An answer's feature is ``{id, name, kind}`` everywhere: one object in a single pair's answer,
 one column per key in a batch's (``{"id": [...], "name": [...], "kind": [...]}``), with the
@@ -10,59 +13,40 @@ from __future__ import annotations
 
 import numpy as np
 
-from impactnet.models.compound.body_table import body_table
-from impactnet.models.compound.parts import BoxPart
 from impactnet.models.dispatch import Answers
-from impactnet.models.geometry import box_features as bf
 
-#: Box feature names and kinds by id + 1 (id -1: none).
-_BOX_NAMES = np.array([bf.feature_name(i) for i in range(-1, bf.N_FEATURES)])
-_BOX_KINDS = np.array([str(bf.feature_kind(i)) for i in range(-1, bf.N_FEATURES)])
+#: The name and kind of a missing feature (a part code or an id of -1).
+NONE = ("none", "none")
 
 
-def _part_tables(answers: Answers) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per part code: is a box part, its hull's face count, its edge count."""
-    n = len(answers.part_names)
-    is_box, faces, edges = np.zeros(n, bool), np.zeros(n, np.int64), np.zeros(n, np.int64)
-    for code, (shape, index) in enumerate(zip(answers.shapes, answers.part_index.tolist())):
-        part = shape.parts[index]
-        if isinstance(part, BoxPart):
-            is_box[code] = True
-            continue
-        hull = body_table(shape.parts).hulls[index]
-        faces[code], edges[code] = hull.n_faces, hull.n_edges
-    return is_box, faces, edges
+class Labeller:
+    """(name, kind) of a feature id of a part code of one answer, each distinct pair named once."""
+
+    def __init__(self, answers: Answers) -> None:
+        self.answers = answers
+        self.named: dict[tuple[int, int], tuple[str, str]] = {}
+
+    def __call__(self, part: int, feature_id: int) -> tuple[str, str]:
+        key = (part, feature_id)
+        found = self.named.get(key)
+        if found is None:
+            a = self.answers
+            found = self.named[key] = NONE if part < 0 or feature_id < 0 else \
+                a.shapes[part].feature(int(a.part_index[part]), feature_id)
+        return found
 
 
-def labels(answers: Answers, parts: np.ndarray, ids: np.ndarray,
-           tables=None) -> tuple[np.ndarray, np.ndarray]:
-    """(names (k,), kinds (k,)) of features ``ids`` (k,) of part codes ``parts`` (k,); a part
-    code of -1 or an id of -1 is ``none``. ``tables``: :func:`tables_of` (computed if None)."""
-    is_box, faces, edges = tables if tables is not None else tables_of(answers)
+def labels(label: Labeller, parts: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(names (k,), kinds (k,)) object arrays of features ``ids`` (k,) of part codes ``parts``
+    (k,), each distinct (part, id) named once by ``label``."""
     parts, ids = np.asarray(parts, np.int64), np.asarray(ids, np.int64)
-    names = np.full(len(ids), "none", dtype=object)
-    kinds = np.full(len(ids), "none", dtype=object)
-    known = (parts >= 0) & (ids >= 0)
-    box = known.copy()  # an answer without any part code has empty tables
-    box[known] = is_box[parts[known]]
-    names[box], kinds[box] = _BOX_NAMES[ids[box] + 1], _BOX_KINDS[ids[box] + 1]
-    hull = known & ~box
-    if hull.any():
-        f, e = faces[parts[hull]], edges[parts[hull]]
-        local = ids[hull]
-        kind = np.where(local < f, "face", np.where(local < f + e, "edge", "vertex"))
-        index = np.where(local < f, local, np.where(local < f + e, local - f, local - f - e))
-        names[hull] = np.char.add(np.char.add(kind.astype(str), " "), index.astype(str))
-        kinds[hull] = kind
-    return names, kinds
-
-
-def tables_of(answers: Answers):
-    """The per-part tables :func:`labels` reads (build once per answer)."""
-    return _part_tables(answers)
-
-
-def feature(answers: Answers, part: int, feature_id: int, tables=None) -> dict:
-    """One feature as ``{id, name, kind}``."""
-    names, kinds = labels(answers, np.array([part]), np.array([feature_id]), tables)
-    return {"id": int(feature_id), "name": str(names[0]), "kind": str(kinds[0])}
+    if not len(ids):
+        return np.zeros(0, object), np.zeros(0, object)
+    # one key per (part, id): ids above -1 and below the largest id + 2, parts above -1
+    width = int(ids.max()) + 2
+    unique, inverse = np.unique((parts + 1) * width + ids + 1, return_inverse=True)
+    named = [label(int(k // width) - 1, int(k % width) - 1) for k in unique.tolist()]
+    names = np.array([n for n, _ in named], dtype=object)
+    kinds = np.array([k for _, k in named], dtype=object)
+    inverse = inverse.reshape(-1)
+    return names[inverse], kinds[inverse]

@@ -72,7 +72,8 @@ async def _watch_disconnect(receive: Receive, limit: WorkLimit) -> None:
 
 
 class Work:
-    """The computing steps of one request: one deadline, one disconnect watcher.
+    """The computing steps of one request: one deadline, one disconnect watcher (made by the
+    first step run in a lane).
 
     Parameters
     ----------
@@ -89,8 +90,14 @@ class Work:
         self._watcher: asyncio.Task | None = None
 
     async def __aenter__(self) -> Work:
-        self._watcher = asyncio.create_task(_watch_disconnect(self._receive, self.limit))
         return self
+
+    def _watch(self) -> None:
+        """Watch the client's disconnect from the first step sent to a lane on (work done on
+        the event loop, such as a single box pair, cannot see a disconnect before it ends:
+        no watcher is made for it)."""
+        if self._watcher is None:
+            self._watcher = asyncio.create_task(_watch_disconnect(self._receive, self.limit))
 
     async def __aexit__(self, *exc) -> None:
         if self._watcher is not None and not self._watcher.done():
@@ -103,6 +110,7 @@ class Work:
         its context (the request id); 503 when the large lane's queue is full, 504 past the
         deadline, :class:`ClientGone` when the client left."""
         limit, lanes = self.limit, self.runtime.lanes
+        self._watch()
         context = contextvars.copy_context()
         pool = lanes.for_cost(cost)
         step = {"waiting": pool is lanes.large}  # in the large lane's queue, not started
