@@ -150,6 +150,9 @@ def reachable(pairs: Pairs, rows: np.ndarray, margin: float = 0.0) -> np.ndarray
 def _split(pairs: Pairs, rows: np.ndarray, chains, cap: int | None = None) -> list[Group]:
     """The compound ``rows`` grouped by their pair of shapes (raises
     :class:`TooManyShapePairs` past ``cap`` distinct pairs, before any group is formed)."""
+    if len(rows) == 1 and (cap is None or cap >= 1):  # one row: one group (no sort)
+        a, b = (pairs.shapes[int(pairs.column(f"shape_{s}")[rows[0]])] for s in "ab")
+        return [Group(rows, a, b, pairs.poses(rows), chains(a, b))]
     key = (pairs.column("shape_a")[rows].astype(np.int64) * len(pairs.shapes)
            + pairs.column("shape_b")[rows])
     unique, inverse = np.unique(key, return_inverse=True)

@@ -67,6 +67,13 @@ def test_quaternion_to_matrix_matches_scipy_on_10000_random_rotations(random_q):
                                to_scipy(random_q).as_matrix(), atol=ROUNDOFF_TOL)
 
 
+def test_one_rotation_is_the_batch_row_bit_for_bit(random_q):
+    # one row takes Python floats through the same formula: it must round as the batch does
+    batch = quaternion_to_matrix(random_q[:200])
+    for k in range(200):
+        np.testing.assert_array_equal(quaternion_to_matrix(random_q[k]), batch[k:k + 1])
+
+
 def test_matrix_to_quaternion_matches_scipy_with_canonical_sign(random_q):
     matrices = to_scipy(random_q).as_matrix()
     q = matrix_to_quaternion(matrices)
