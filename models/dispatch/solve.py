@@ -138,6 +138,8 @@ def _box_rows(pieces: Pieces, plan: plans.Plan, predictor, caps: plans.Caps) -> 
     """The box rows through the box chain, in chunks (one contact per touching pair); a
     chunk of one row goes in as vectors (the predictors' one-pair entry: fewest NumPy calls)."""
     pairs, rows = plan.pairs, plan.box_rows
+    if not len(rows):
+        return
     sizes = pairs.table.size
     index_a, index_b = pairs.column("shape_a"), pairs.column("shape_b")
     code = pieces.codes_of(pairs.shapes[int(index_a[rows[0]])])[0]  # every box's part code
