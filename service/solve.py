@@ -56,9 +56,9 @@ def _refused(exc: Exception, mode: str, batch: bool) -> Exception:
 _REFUSALS = (TooManyCandidates, TooManyContacts, TooManyShapePairs, UnsupportedPairError)
 
 
-def _plan(dispatcher, pairs, mode, include, margin, caps: Caps):
+def _plan(dispatcher, pairs, mode, include, margin, separated, caps: Caps):
     try:
-        return dispatcher.plan(pairs, mode, include, margin, caps)
+        return dispatcher.plan(pairs, mode, include, margin, caps, separated)
     except _REFUSALS as exc:
         raise _refused(exc, mode, len(pairs) > 1) from None
 
@@ -80,10 +80,10 @@ def _solve(dispatcher, plan, caps: Caps):
         raise _refused(exc, plan.mode, len(plan.pairs) > 1) from None
 
 
-def _inline(dispatcher, pairs, mode, include, margin, caps, lease):
+def _inline(dispatcher, pairs, mode, include, margin, caps, lease, separated=True):
     """The three steps at once, in this thread (a single box pair)."""
-    return _steps(dispatcher, pairs, None, False, (mode, include, margin), caps, lease,
-                  lambda cost: True)[2]
+    return _steps(dispatcher, pairs, None, False, (mode, include, margin, separated), caps,
+                  lease, lambda cost: True)[2]
 
 
 def solve_now(dispatcher, pairs, mode: str, include, margin: float, settings):
@@ -94,20 +94,23 @@ def solve_now(dispatcher, pairs, mode: str, include, margin: float, settings):
 
 
 async def solve(work: Work, state, pairs, mode: str, include=(), margin: float = 0.0,
-                lease: Lease | None = None):
-    """The answers of ``pairs`` in ``mode`` (module docstring)."""
+                lease: Lease | None = None, separated: bool = True):
+    """The answers of ``pairs`` in ``mode`` (module docstring); ``separated=False``: rows
+    without contact beyond the margin are not asked for their separating direction (a frame
+    drops them)."""
     state.predictor(mode)  # 409 when the mode is not served
     settings = work.runtime.settings
     caps, dispatcher = caps_of(settings), state.dispatcher
     lease = lease if lease is not None else Lease(work.runtime.budget)
     if len(pairs) == 1 and pairs.table.is_box.all():
-        return _inline(dispatcher, pairs, mode, include, margin, caps, lease)
+        return _inline(dispatcher, pairs, mode, include, margin, caps, lease, separated)
     lanes = work.runtime.lanes
     plan, counted, answers, cost = None, False, None, len(pairs)
     while answers is None:  # one hop per change of lane
         lane = lanes.for_cost(cost)
         plan, counted, answers = await work.run(
-            cost, _steps, dispatcher, pairs, plan, counted, (mode, include, margin), caps, lease,
+            cost, _steps, dispatcher, pairs, plan, counted, (mode, include, margin, separated),
+            caps, lease,
             lambda next_cost, lane=lane: lanes.for_cost(next_cost) is lane)
         cost = plan.work
     return answers
@@ -117,7 +120,8 @@ def _steps(dispatcher, pairs, plan, counted: bool, request: tuple, caps: Caps, l
            stays):
     """The steps not taken yet (the plan, the count, the solve), for as long as the next
     step's known cost keeps it in this thread's lane (``stays(cost)``): a hop costs ~0.1 ms
-    each way, a third of a small compound pair's solve. ``request``: (mode, include, margin).
+    each way, a third of a small compound pair's solve. ``request``: (mode, include, margin,
+    separated).
     Returns (plan, counted, answers or None)."""
     if plan is None:
         plan = _plan(dispatcher, pairs, *request, caps)

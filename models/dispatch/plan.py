@@ -118,8 +118,15 @@ class Plan:
     apart: Apart | None = None  # compound rows that cannot touch
     include: tuple = ()  # "manifold"
     margin: float = 0.0  # metres: pairs apart by less get their distance and closest points
+    separated: bool = True  # rows without contact get their separating direction (a frame
+    # at margin 0 drops them: False spares their gap query)
     candidates: int = 0  # candidate part pairs of all groups
     work: float = 0.0  # box-pair solves
+
+    @property
+    def gaps(self) -> bool:
+        """Whether compound rows without contact are given their gap query's answer."""
+        return self.separated or self.margin > 0.0
 
     def memory_bytes(self, contacts_cap: int | None) -> int:
         """What the solve may allocate: the rows, the candidates, one slice, the answer."""
@@ -169,10 +176,11 @@ def _split(pairs: Pairs, rows: np.ndarray, chains, cap: int | None = None) -> li
 
 
 def plan(pairs: Pairs, mode: str, chains=lambda a, b: None, include=(),
-         margin: float = 0.0, caps: Caps = Caps()) -> Plan:
+         margin: float = 0.0, caps: Caps = Caps(), separated: bool = True) -> Plan:
     """The rows split (module docstring), compound rows grouped but not yet counted
     (:func:`count`); ``chains(shape_a, shape_b)`` names a compound pair's learned chain;
-    ``caps.shape_pairs_per_request`` bounds the groups (:class:`TooManyShapePairs`)."""
+    ``caps.shape_pairs_per_request`` bounds the groups (:class:`TooManyShapePairs`);
+    ``separated``: :attr:`Plan.separated`."""
     boxes = pairs.table.is_box
     both = boxes[pairs.column("shape_a")] & boxes[pairs.column("shape_b")]
     box_rows = np.flatnonzero(both)
@@ -181,10 +189,11 @@ def plan(pairs: Pairs, mode: str, chains=lambda a, b: None, include=(),
     groups = (_split(pairs, rows[near], chains, caps.shape_pairs_per_request)
               if near.any() else [])
     apart = Apart.of(pairs, rows[~near]) if (~near).any() else None
+    out = Plan(pairs, mode, box_rows, groups, apart, tuple(include), float(margin), separated)
     part_pairs = sum(len(g.rows) * len(g.shape_a.parts) * len(g.shape_b.parts)
-                     for g in groups) + (apart.part_pairs(pairs) if apart else 0)
-    return Plan(pairs, mode, box_rows, groups, apart, tuple(include), float(margin),
-                work=len(box_rows) + part_pairs / PART_PAIRS_PER_UNIT)
+                     for g in groups) + (apart.part_pairs(pairs) if apart and out.gaps else 0)
+    out.work = len(box_rows) + part_pairs / PART_PAIRS_PER_UNIT
+    return out
 
 
 def count(plan_: Plan, caps: Caps) -> Plan:
@@ -207,7 +216,7 @@ def count(plan_: Plan, caps: Caps) -> Plan:
                                     caps.candidates_per_request) from None
         total += group.candidates.total
         work += group.candidates.work + len(group.rows)
-    if plan_.apart is not None:  # their closest part pairs, by branch and bound
+    if plan_.apart is not None and plan_.gaps:  # their closest part pairs (branch and bound)
         work += plan_.apart.part_pairs(plan_.pairs) / PART_PAIRS_PER_UNIT
     plan_.candidates, plan_.work = total, work
     return plan_

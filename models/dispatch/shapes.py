@@ -69,8 +69,18 @@ class Shape:
         centre, half = self.bounds
         return centre, float(np.linalg.norm(half))
 
+    @cached_property
+    def _feature_names(self) -> dict:
+        return {}  # (part, feature id) -> (name, kind): each named once per shape
+
     def feature(self, part: int, feature: int) -> tuple[str, str]:
         """(name, kind) of a feature id of part ``part``: kind face, edge, vertex or none."""
+        found = self._feature_names.get((part, feature))
+        if found is None:
+            found = self._feature_names[(part, feature)] = self._named(part, feature)
+        return found
+
+    def _named(self, part: int, feature: int) -> tuple[str, str]:
         if feature < 0:
             return "none", "none"
         if isinstance(self.parts[part], BoxPart):

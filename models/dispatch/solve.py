@@ -64,9 +64,11 @@ class Dispatcher:
                              if a.name and b.name else None)
 
     def plan(self, pairs: Pairs, mode: str = "exact", include=(), margin: float = 0.0,
-             caps: plans.Caps = plans.Caps()) -> plans.Plan:
-        """The split of the rows (cheap: :func:`impactnet.models.dispatch.plan.plan`)."""
-        return plans.plan(pairs, mode, self._chains(mode), include, margin, caps)
+             caps: plans.Caps = plans.Caps(), separated: bool = True) -> plans.Plan:
+        """The split of the rows (cheap: :func:`impactnet.models.dispatch.plan.plan`);
+        ``separated=False``: rows without contact beyond the margin are not asked for their
+        separating direction (a caller that drops them, such as a frame)."""
+        return plans.plan(pairs, mode, self._chains(mode), include, margin, caps, separated)
 
     def count(self, plan: plans.Plan, caps: plans.Caps = plans.Caps()) -> plans.Plan:
         """The broadphase's count under ``caps``
@@ -88,14 +90,16 @@ class Dispatcher:
             checkpoint()
             pieces.add(plan.apart.rows, {}, ORACLE, np.zeros(0, np.int64),
                        _no_contacts(pieces.manifold))
-        _separated_gaps(pieces, plan)
+        if plan.gaps:
+            _separated_gaps(pieces, plan)
         return pieces.merged()
 
     def answer(self, pairs: Pairs, mode: str = "exact", include=(), margin: float = 0.0,
-               caps: plans.Caps = plans.Caps()) -> Answers:
-        """Plan, count and solve in one call (a library caller)."""
-        return self.solve(self.count(self.plan(pairs, mode, include, margin, caps), caps),
-                          caps)
+               caps: plans.Caps = plans.Caps(), separated: bool = True) -> Answers:
+        """Plan, count and solve in one call (a library caller); ``separated``: as
+        :meth:`plan`'s."""
+        return self.solve(self.count(self.plan(pairs, mode, include, margin, caps, separated),
+                                     caps), caps)
 
 
 def _check_contacts(counts: np.ndarray, rows: np.ndarray, total: int,

@@ -80,7 +80,7 @@ def answer_frame(dispatcher, bodies: Bodies, mode: str = "exact", margin: float 
     """Every pair of ``bodies`` that touches or lies within ``margin`` (m), answered by
     ``dispatcher`` (an :class:`~impactnet.models.dispatch.Dispatcher`) in ``mode``."""
     found = frame_pairs(bodies, margin, allowed, max_pairs)
-    answers = dispatcher.answer(found.pairs, mode, include, margin, caps)
+    answers = dispatcher.answer(found.pairs, mode, include, margin, caps, separated=False)
     return frame_answer(bodies, found, answers)
 
 

@@ -95,3 +95,20 @@ def test_a_world_joined_to_moving_bodies_is_static_and_ids_stay_unique():
     with pytest.raises(DuplicateBodyId):
         world.joined(Bodies(("w2",), (box,), np.zeros(1, int), np.zeros((1, 3)),
                             [[1.0, 0, 0, 0]]))
+
+
+@pytest.mark.parametrize("margin, asked", [(0.0, False), (0.3, True)])
+def test_a_frame_at_margin_0_asks_no_gap_of_the_compound_pairs_it_drops(margin, asked,
+                                                                        monkeypatch):
+    from impactnet.models.dispatch import solve as dispatch_solve
+
+    calls = []
+    gaps = dispatch_solve.bodies_gaps
+    monkeypatch.setattr(dispatch_solve, "bodies_gaps",
+                        lambda *args: calls.append(len(args[1])) or gaps(*args))
+    bodies = small_yard("quay_crane_detail", seed=3, static_world=False, gap=0.2)
+    frame = answer_frame(Dispatcher(), bodies, margin=margin)
+    assert bool(calls) is asked  # the spreader 0.2 m above its container: apart, a compound
+    assert frame.answers.body["colliding"].any()  # pair; the stacks touch either way
+    Dispatcher().answer(frame_pairs(bodies, margin).pairs, "exact", (), margin)
+    assert calls  # the pairwise API gives the same pairs their separating direction
