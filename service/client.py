@@ -21,12 +21,13 @@ connection is sent once more on a fresh one.
 from __future__ import annotations
 
 import http.client
-import io
 import json
 import urllib.parse
 import uuid
 
 import numpy as np
+
+from impactnet.service.codecs.npz_format import read_npz, write_npz
 
 try:  # a runtime dependency of impactnet; the client also works with the standard library
     import orjson
@@ -177,15 +178,12 @@ class ImpactClient:
         options = {k: v for k, v in options.items() if v is not None}
         if not binary:
             return _arrays(self._json("POST", "/v2/contact/batch", dict(columns) | options))
-        buffer = io.BytesIO()
-        np.savez(buffer, **{k: np.asarray(v) for k, v in columns.items()})
         query = urllib.parse.urlencode(options, doseq=True)
         status, headers, data = self.request(
             "POST", "/v2/contact/batch" + (f"?{query}" if query else ""),
-            buffer.getvalue(), {"Content-Type": NPZ, "Accept": NPZ})
+            write_npz(columns), {"Content-Type": NPZ, "Accept": NPZ})
         self._check(status, headers, data)
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            return _nested({k: npz[k] for k in npz.files})
+        return _nested(read_npz(data))
 
     def register_world(self, bodies: list[dict], euler_convention: str | None = None) -> str:
         """POST /v2/worlds: register static ``bodies`` (a frame's body objects) on the
@@ -225,15 +223,12 @@ class ImpactClient:
         raise AssertionError("unreachable")
 
     def _frame_npz(self, columns: dict, options: dict) -> dict:
-        buffer = io.BytesIO()
-        np.savez(buffer, **{k: np.asarray(v) for k, v in columns.items()})
         query = urllib.parse.urlencode(options, doseq=True)
         status, headers, data = self.request(
-            "POST", "/v2/frame" + (f"?{query}" if query else ""), buffer.getvalue(),
+            "POST", "/v2/frame" + (f"?{query}" if query else ""), write_npz(columns),
             {"Content-Type": NPZ, "Accept": NPZ})
         self._check(status, headers, data)
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            return _nested({k: npz[k] for k in npz.files})
+        return _nested(read_npz(data))
 
 
 #: Scalars of a batch answer.

@@ -10,15 +10,14 @@ client that does not take the answer within ``send_timeout_s`` is disconnected.
 from __future__ import annotations
 
 import asyncio
-import io
 import logging
-import zipfile
 from collections.abc import Iterable, Iterator
 
-import numpy as np
 from starlette.concurrency import run_in_threadpool
 from starlette.responses import Response
 from starlette.types import Receive, Scope, Send
+
+from impactnet.service.codecs.npz_format import npz_stream
 
 log = logging.getLogger("impactnet.service")
 
@@ -50,46 +49,11 @@ def json_pieces(head: bytes, columns: Iterable, tail: bytes) -> Iterator[bytes]:
     yield b"".join(buffer)
 
 
-class _Sink(io.RawIOBase):
-    """A write-only, unseekable file that keeps what was written until :meth:`take`."""
-
-    def __init__(self) -> None:
-        self._chunks: list[bytes] = []
-        self._position = self.pending = 0
-
-    def writable(self) -> bool:
-        return True
-
-    def write(self, data) -> int:
-        self._chunks.append(bytes(data))
-        self._position += len(data)
-        self.pending += len(data)
-        return len(data)
-
-    def tell(self) -> int:
-        return self._position
-
-    def take(self) -> bytes:
-        out, self._chunks, self.pending = b"".join(self._chunks), [], 0
-        return out
-
-
 def npz_pieces(members: Iterable) -> Iterator[bytes]:
     """An npz archive in pieces of about :data:`PIECE_BYTES`; ``members`` yields ``(name,
-    dtype, shape, slices)`` with ``slices`` the member's rows, slice after slice."""
-    sink = _Sink()
-    with zipfile.ZipFile(sink, mode="w", compression=zipfile.ZIP_STORED,
-                         allowZip64=True) as archive:
-        for name, dtype, shape, slices in members:
-            with archive.open(f"{name}.npy", "w", force_zip64=True) as out:
-                np.lib.format.write_array_header_2_0(out, {
-                    "descr": np.lib.format.dtype_to_descr(np.dtype(dtype)),
-                    "fortran_order": False, "shape": tuple(shape)})
-                for part in slices:
-                    out.write(np.ascontiguousarray(part, dtype=dtype).tobytes())
-                    if sink.pending >= PIECE_BYTES:
-                        yield sink.take()
-    yield sink.take()  # the last members and the central directory
+    dtype, shape, slices)`` with ``slices`` the member's rows, slice after slice
+    (:func:`impactnet.service.codecs.npz_format.npz_stream`)."""
+    return npz_stream(members, PIECE_BYTES)
 
 
 class StreamedAnswer(Response):

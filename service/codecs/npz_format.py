@@ -1,0 +1,240 @@
+"""npz archives (an uncompressed zip of ``.npy`` members) read and written in one pass over the
+bytes, without :mod:`zipfile`'s and ``numpy.load``'s per-member work (a frame's answer has ~50
+small members: ``numpy.load`` spent ~45 us on each).
+
+:func:`read_npz` reads what ``numpy.savez`` and the service's streamed answers write (stored
+members, zip64 or not, sizes in the central directory or in data descriptors); anything else
+(compressed members, structured dtypes, an unexpected header) is read by ``numpy.load``, so
+that the result never depends on the path. Each member's CRC-32 is checked, as ``zipfile``
+does. :func:`write_npz` writes whole arrays (a client's request) the way ``numpy.savez``
+does; :func:`npz_stream` writes members given slice by slice (a server's answer, streamed),
+zip64 records where an offset or a size needs them. ``numpy.load`` reads both.
+"""
+from __future__ import annotations
+
+import io
+import re
+import struct
+import zlib
+from collections.abc import Iterable, Iterator
+
+import numpy as np
+
+_EOCD, _EOCD64, _LOCATOR = b"PK\x05\x06", b"PK\x06\x06", b"PK\x06\x07"
+_CENTRAL, _LOCAL = b"PK\x01\x02", b"PK\x03\x04"
+_CENTRAL_ENTRY = struct.Struct("<4s6H3I5H2I")  # 46 bytes
+_LOCAL_ENTRY = struct.Struct("<4s5H3I2H")  # 30 bytes
+_ZIP64_EXTRA = 0x0001
+_FULL32, _FULL16 = 0xFFFFFFFF, 0xFFFF
+_DESCRIPTOR = b"PK\x07\x08"
+#: Offsets and sizes from this many bytes on are written in zip64 records (the zip format's
+#: 32-bit fields end at 0xFFFFFFFF, which marks a value given in the zip64 extra field).
+ZIP64_FROM = _FULL32
+#: The largest archive written without zip64 records (a client's request; larger ones are
+#: ``numpy.savez``'s).
+_PLAIN_MAX_BYTES = 0x7FFF0000
+_NPY_MAGIC = b"\x93NUMPY"
+_DESCR = re.compile(r"""['"]descr['"]\s*:\s*['"]([^'"]+)['"]""")
+_FORTRAN = re.compile(r"""['"]fortran_order['"]\s*:\s*(True|False)""")
+_SHAPE = re.compile(r"""['"]shape['"]\s*:\s*\(([^)]*)\)""")
+
+
+class _Unusual(Exception):
+    """Not what the fast path reads: ``numpy.load`` reads it."""
+
+
+def _zip64_values(extra: bytes, wanted: int) -> list[int]:
+    """The first ``wanted`` 8-byte values of a zip64 extra field."""
+    at = 0
+    while at + 4 <= len(extra):
+        key, size = struct.unpack_from("<2H", extra, at)
+        if key == _ZIP64_EXTRA:
+            if size < 8 * wanted:
+                raise _Unusual()
+            return list(struct.unpack_from(f"<{wanted}Q", extra, at + 4))
+        at += 4 + size
+    raise _Unusual()
+
+
+def _directory(data: memoryview) -> tuple[int, int]:
+    """(offset, entries) of the central directory."""
+    end = bytes(data[-(22 + _FULL16):]).rfind(_EOCD)
+    if end < 0:
+        raise _Unusual()
+    end += max(0, len(data) - (22 + _FULL16))
+    entries, size, offset = struct.unpack_from("<H2I", data, end + 10)
+    if _FULL32 in (size, offset) or entries == _FULL16:
+        locator = end - 20
+        if locator < 0 or bytes(data[locator:locator + 4]) != _LOCATOR:
+            raise _Unusual()
+        (record,) = struct.unpack_from("<Q", data, locator + 8)
+        if bytes(data[record:record + 4]) != _EOCD64:
+            raise _Unusual()
+        entries, size, offset = struct.unpack_from("<3Q", data, record + 32)
+    return offset, entries
+
+
+def _members(data: memoryview):
+    """(name, start, size, crc) of every member's bytes."""
+    at, entries = _directory(data)
+    for _ in range(entries):
+        (signature, _, _, flags, method, _, _, crc, packed, size, name_length, extra_length,
+         comment_length, _, _, _, local) = _CENTRAL_ENTRY.unpack_from(data, at)
+        if signature != _CENTRAL or method != 0 or flags & 1 or packed != size:
+            raise _Unusual()
+        name = bytes(data[at + 46:at + 46 + name_length]).decode()
+        extra = bytes(data[at + 46 + name_length:at + 46 + name_length + extra_length])
+        if _FULL32 in (size, local):  # zip64: the values marked full, in this order
+            values = iter(_zip64_values(extra, (size == _FULL32) * 2 + (local == _FULL32)))
+            size = next(values) if size == _FULL32 else size
+            if packed == _FULL32:
+                next(values)
+            local = next(values) if local == _FULL32 else local
+        header = _LOCAL_ENTRY.unpack_from(data, local)
+        if header[0] != _LOCAL:
+            raise _Unusual()
+        start = local + 30 + header[9] + header[10]
+        yield name, start, size, crc
+        at += 46 + name_length + extra_length + comment_length
+
+
+def _array(buffer, start: int, size: int) -> np.ndarray:
+    """The array of one ``.npy`` member at ``buffer[start:start + size]``."""
+    head = bytes(buffer[start:start + 12])
+    if head[:6] != _NPY_MAGIC or head[6] not in (1, 2, 3):
+        raise _Unusual()
+    length, skip = (struct.unpack_from("<H", head, 8)[0], 10) if head[6] == 1 else \
+        (struct.unpack_from("<I", head, 8)[0], 12)
+    text = bytes(buffer[start + skip:start + skip + length]).decode("latin1")
+    descr, fortran, shape = _DESCR.search(text), _FORTRAN.search(text), _SHAPE.search(text)
+    if descr is None or fortran is None or shape is None:
+        raise _Unusual()
+    dtype = np.dtype(descr.group(1))
+    if dtype.hasobject:
+        raise ValueError("Object arrays cannot be loaded when allow_pickle=False")
+    dims = tuple(int(d) for d in shape.group(1).split(",") if d.strip())
+    count = int(np.prod(dims, dtype=np.int64))
+    offset = start + skip + length
+    if offset + count * dtype.itemsize > start + size:
+        raise ValueError("npz member shorter than its header says")
+    array = np.frombuffer(buffer, dtype, count, offset).copy()  # aligned, writable, owned
+    if fortran.group(1) == "True":
+        return array.reshape(dims[::-1]).T
+    return array.reshape(dims)
+
+
+def read_npz(data: bytes) -> dict[str, np.ndarray]:
+    """Every member of an npz archive, by name (``.npy`` dropped), as arrays of their own
+    (aligned and writable, as ``numpy.load``'s); object arrays are refused as ``numpy.load``
+    refuses them without ``allow_pickle``."""
+    view = memoryview(data)
+    try:
+        found = list(_members(view))
+        for name, start, size, crc in found:
+            if zlib.crc32(view[start:start + size]) != crc:
+                raise ValueError(f"npz member {name!r}: bad CRC-32")
+        return {name.removesuffix(".npy"): _array(view, start, size)
+                for name, start, size, _ in found}
+    except (_Unusual, struct.error, UnicodeDecodeError):
+        with np.load(io.BytesIO(data), allow_pickle=False) as archive:
+            return {name: archive[name] for name in archive.files}
+
+
+def _npy(array: np.ndarray) -> bytes:
+    """One ``.npy`` member: its header, then its data in C order."""
+    return _npy_header(array.dtype, array.shape) + np.ascontiguousarray(array).tobytes()
+
+
+def write_npz(arrays: dict) -> bytes:
+    """An npz archive of ``arrays`` (name -> array_like), as ``numpy.savez`` writes it."""
+    members = {f"{name}.npy": np.asarray(value) for name, value in arrays.items()}
+    if any(a.dtype.hasobject for a in members.values()) or len(members) >= _FULL16 or \
+            sum(a.nbytes for a in members.values()) > _PLAIN_MAX_BYTES:
+        buffer = io.BytesIO()
+        np.savez(buffer, **{name.removesuffix(".npy"): a for name, a in members.items()})
+        return buffer.getvalue()
+    parts, central, at = [], [], 0
+    for name, array in members.items():
+        body, encoded = _npy(array), name.encode()
+        crc = zlib.crc32(body)
+        parts += [_LOCAL_ENTRY.pack(_LOCAL, 20, 0, 0, 0, 0x21, crc, len(body), len(body),
+                                    len(encoded), 0), encoded, body]
+        central += [_CENTRAL_ENTRY.pack(_CENTRAL, 20, 20, 0, 0, 0, 0x21, crc, len(body),
+                                        len(body), len(encoded), 0, 0, 0, 0, 0, at), encoded]
+        at += 30 + len(encoded) + len(body)
+    directory = b"".join(central)
+    end = struct.pack("<4s4H2IH", _EOCD, 0, 0, len(members), len(members), len(directory),
+                      at, 0)
+    return b"".join(parts) + directory + end
+
+
+def _npy_header(dtype: np.dtype, shape: tuple) -> bytes:
+    """A ``.npy`` header (format 1.0, padded to 64 bytes, as numpy writes it)."""
+    header = (f"{{'descr': {np.lib.format.dtype_to_descr(dtype)!r}, "
+              f"'fortran_order': False, 'shape': {tuple(int(d) for d in shape)!r}, }}")
+    padding = 64 - (len(header) + 11) % 64
+    header = (header + " " * padding + "\n").encode("latin1")
+    return _NPY_MAGIC + b"\x01\x00" + struct.pack("<H", len(header)) + header
+
+
+def _central(name: bytes, crc: int, size: int, offset: int, flags: int) -> bytes:
+    """A member's central directory entry, its size and offset in a zip64 extra field where
+    either needs one."""
+    big = [v for v in (size, size) if v >= ZIP64_FROM] + ([offset] if offset >= ZIP64_FROM
+                                                          else [])
+    extra = struct.pack(f"<2H{len(big)}Q", _ZIP64_EXTRA, 8 * len(big), *big) if big else b""
+    shown = [min(v, _FULL32) if v < ZIP64_FROM else _FULL32 for v in (size, offset)]
+    return _CENTRAL_ENTRY.pack(_CENTRAL, 45, 45 if big else 20, flags, 0, 0, 0x21, crc,
+                               shown[0], shown[0], len(name), len(extra), 0, 0, 0, 0,
+                               shown[1]) + name + extra
+
+
+def _end(entries: int, directory: int, offset: int) -> bytes:
+    """The end of the archive: a zip64 end record and its locator where the directory's
+    place or size needs them, then the end record."""
+    out = b""
+    if max(directory, offset) >= ZIP64_FROM or entries >= _FULL16:
+        at = offset + directory
+        out = struct.pack("<4sQ2H2I4Q", _EOCD64, 44, 45, 45, 0, 0, entries, entries,
+                          directory, offset)
+        out += struct.pack("<4sIQI", _LOCATOR, 0, at, 1)
+        entries, directory, offset = min(entries, _FULL16), _FULL32, _FULL32
+    return out + struct.pack("<4s4H2IH", _EOCD, 0, 0, entries, entries, directory, offset, 0)
+
+
+def npz_stream(members: Iterable, piece_bytes: int) -> Iterator[bytes]:
+    """An npz archive in pieces of about ``piece_bytes``; ``members`` yields ``(name, dtype,
+    shape, slices)``, ``slices`` the member's rows slice after slice (C order, any number).
+    Each member's sizes and CRC-32 follow its data (a data descriptor) and are in the
+    central directory."""
+    pending: list[bytes] = []
+    held = written = 0  # bytes waiting in pending; bytes yielded before them
+    central = []
+    for name, dtype, shape, slices in members:
+        dtype, encoded = np.dtype(dtype), f"{name}.npy".encode()
+        header = _npy_header(dtype, shape)
+        wide = len(header) + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize >= ZIP64_FROM
+        extra = struct.pack("<2H2Q", _ZIP64_EXTRA, 16, 0, 0) if wide else b""
+        local = written + held
+        head = _LOCAL_ENTRY.pack(_LOCAL, 45 if wide else 20, 8, 0, 0, 0x21, 0, 0, 0,
+                                 len(encoded), len(extra)) + encoded + extra
+        crc, size = zlib.crc32(header), len(header)
+        pending += [head, header]
+        held += len(head) + len(header)
+        for part in slices:
+            data = np.ascontiguousarray(part, dtype=dtype).tobytes()
+            crc, size = zlib.crc32(data, crc), size + len(data)
+            pending.append(data)
+            held += len(data)
+            if held >= piece_bytes:
+                yield b"".join(pending)
+                written += held
+                pending, held = [], 0
+        descriptor = struct.pack("<4sI2Q" if wide else "<4s3I", _DESCRIPTOR, crc, size, size)
+        pending.append(descriptor)
+        held += len(descriptor)
+        central.append(_central(encoded, crc, size, local, 8))
+    directory = b"".join(central)
+    offset = written + held
+    pending += [directory, _end(len(central), len(directory), offset)]
+    yield b"".join(pending)
