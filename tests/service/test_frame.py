@@ -59,6 +59,20 @@ def test_each_pair_of_a_frame_answers_what_the_pairwise_api_answers(detail, marg
         assert pair["colliding"] or 0.0 <= pair["distance"] <= margin
 
 
+@pytest.mark.parametrize("margin, asked", [(0.0, False), (0.5, True)])
+def test_a_frame_at_margin_0_asks_no_gap_of_the_pairs_it_drops(detail, margin, asked,
+                                                                monkeypatch):
+    from impactnet.models.dispatch import solve as dispatch_solve
+
+    calls = []
+    gaps = dispatch_solve.bodies_gaps
+    monkeypatch.setattr(dispatch_solve, "bodies_gaps",
+                        lambda *args: calls.append(len(args[1])) or gaps(*args))
+    answer = _frame(detail, [*STACK, SPREADER], margin=margin)  # the spreader apart
+    assert bool(calls) is asked
+    assert (("c2", "s1") in {(p["a"], p["b"]) for p in answer["pairs"]}) is asked
+
+
 def test_a_registered_world_stands_in_for_its_bodies(detail):
     registered = detail.post("/v2/worlds", json={"bodies": STACK})
     assert registered.status_code == 200, registered.text

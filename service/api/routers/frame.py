@@ -91,7 +91,7 @@ async def frame(
                                settings)
         chosen = options.mode or state.default_mode
         answers = await solve(work, state, found.pairs, chosen, options.include,
-                              options.margin, lease)
+                              options.margin, lease, separated=False)
         result = frame_answer(bodies, found, answers)
         runtime.metrics.record_answers(chosen, result.answers)
         headers = {"X-Model-Version": state.model_version}
