@@ -13,10 +13,12 @@ zip64 records where an offset or a size needs them. ``numpy.load`` reads both.
 from __future__ import annotations
 
 import io
+import math
 import re
 import struct
 import zlib
 from collections.abc import Iterable, Iterator
+from functools import lru_cache
 
 import numpy as np
 
@@ -113,7 +115,7 @@ def _array(buffer, start: int, size: int) -> np.ndarray:
     if dtype.hasobject:
         raise ValueError("Object arrays cannot be loaded when allow_pickle=False")
     dims = tuple(int(d) for d in shape.group(1).split(",") if d.strip())
-    count = int(np.prod(dims, dtype=np.int64))
+    count = math.prod(dims)
     offset = start + skip + length
     if offset + count * dtype.itemsize > start + size:
         raise ValueError("npz member shorter than its header says")
@@ -142,7 +144,8 @@ def read_npz(data: bytes) -> dict[str, np.ndarray]:
 
 def _npy(array: np.ndarray) -> bytes:
     """One ``.npy`` member: its header, then its data in C order."""
-    return _npy_header(array.dtype, array.shape) + np.ascontiguousarray(array).tobytes()
+    return _npy_header(array.dtype, tuple(int(d) for d in array.shape)) + \
+        np.ascontiguousarray(array).tobytes()
 
 
 def write_npz(arrays: dict) -> bytes:
@@ -168,10 +171,11 @@ def write_npz(arrays: dict) -> bytes:
     return b"".join(parts) + directory + end
 
 
+@lru_cache(maxsize=1024)
 def _npy_header(dtype: np.dtype, shape: tuple) -> bytes:
     """A ``.npy`` header (format 1.0, padded to 64 bytes, as numpy writes it)."""
     header = (f"{{'descr': {np.lib.format.dtype_to_descr(dtype)!r}, "
-              f"'fortran_order': False, 'shape': {tuple(int(d) for d in shape)!r}, }}")
+              f"'fortran_order': False, 'shape': {shape!r}, }}")
     padding = 64 - (len(header) + 11) % 64
     header = (header + " " * padding + "\n").encode("latin1")
     return _NPY_MAGIC + b"\x01\x00" + struct.pack("<H", len(header)) + header
@@ -212,8 +216,9 @@ def npz_stream(members: Iterable, piece_bytes: int) -> Iterator[bytes]:
     central = []
     for name, dtype, shape, slices in members:
         dtype, encoded = np.dtype(dtype), f"{name}.npy".encode()
+        shape = tuple(int(d) for d in shape)
         header = _npy_header(dtype, shape)
-        wide = len(header) + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize >= ZIP64_FROM
+        wide = len(header) + math.prod(shape) * dtype.itemsize >= ZIP64_FROM
         extra = struct.pack("<2H2Q", _ZIP64_EXTRA, 16, 0, 0) if wide else b""
         local = written + held
         head = _LOCAL_ENTRY.pack(_LOCAL, 45 if wide else 20, 8, 0, 0, 0x21, 0, 0, 0,
@@ -222,7 +227,8 @@ def npz_stream(members: Iterable, piece_bytes: int) -> Iterator[bytes]:
         pending += [head, header]
         held += len(head) + len(header)
         for part in slices:
-            data = np.ascontiguousarray(part, dtype=dtype).tobytes()
+            data = (part if type(part) is np.ndarray and part.dtype == dtype
+                    and part.flags.c_contiguous else np.ascontiguousarray(part, dtype)).tobytes()
             crc, size = zlib.crc32(data, crc), size + len(data)
             pending.append(data)
             held += len(data)

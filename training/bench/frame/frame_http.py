@@ -24,7 +24,6 @@ hops.
 """
 from __future__ import annotations
 
-import io
 import tempfile
 from pathlib import Path
 
@@ -41,9 +40,10 @@ NO_OPTIONS = {"world": None, "margin": None, "pairs": None, "mode": None, "inclu
 
 
 def _npz(columns: dict) -> bytes:
-    buffer = io.BytesIO()
-    np.savez(buffer, **{k: np.asarray(v) for k, v in columns.items()})
-    return buffer.getvalue()
+    """The request's npz, as the client writes it."""
+    from impactnet.service.codecs.npz_format import write_npz
+
+    return write_npz(columns)
 
 
 def _sent(columns: dict, moving: int):
@@ -106,8 +106,10 @@ def server_stages(scene_path: str, columns: dict, world, http_call, args: tuple)
 
 
 def _read(data: bytes) -> dict:
-    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-        return {k: npz[k] for k in npz.files}
+    """The answer's arrays, as the client reads them."""
+    from impactnet.service.codecs.npz_format import read_npz
+
+    return read_npz(data)
 
 
 def _ids(answer: dict) -> set[tuple[str, str]]:
