@@ -8,8 +8,9 @@ known cost chooses (:mod:`impactnet.service.limits.lanes`):
 3. :func:`broadphase`: the pairs of bodies that may touch or lie within the margin, held to
    ``max_batch_pairs``; cost ~ n log n.
 
-The pairs are then solved like a batch's (:mod:`impactnet.service.solve`); a refusal names the
-body by its id.
+:func:`advance` takes as many of them as their lane allows in one thread
+(:meth:`~impactnet.service.limits.lanes.Work.chain`). The pairs are then solved like a
+batch's (:mod:`impactnet.service.solve`); a refusal names the body by its id.
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ from impactnet.service.codecs.requests import FrameOptions, FrameRequest, WorldR
 from impactnet.service.errors import InputError, LimitRefused, ServiceError, validation_items
 from impactnet.service.limits.budget import Lease
 
-__all__ = ["Parsed", "broadphase", "decode", "parse", "parse_cost"]
+__all__ = ["Parsed", "Prepared", "advance", "broadphase", "decode", "parse", "parse_cost"]
 
 
 @dataclass
@@ -121,3 +122,39 @@ def broadphase(bodies: Bodies, options: FrameOptions, scene, settings) -> FrameP
         raise LimitRefused("too_many_body_pairs", "bodies", f"more than {exc.cap} pairs of "
                            "bodies may touch or lie within the margin; send a smaller frame",
                            "max_batch_pairs") from None
+
+
+@dataclass
+class Prepared:
+    """How far a frame's first three steps went (:func:`advance`)."""
+
+    parsed: Parsed | None = None
+    bodies: Bodies | None = None
+    found: FramePairs | None = None
+    cost: float = 0.0  # the next step's known cost (box-pair solves)
+
+    @property
+    def done(self) -> bool:
+        return self.found is not None
+
+
+def advance(progress: Prepared, request: tuple, stays) -> Prepared:
+    """The steps not taken yet (parse, decode with the world the frame names, broadphase),
+    for as long as the next step's known cost keeps it in this thread's lane
+    (``stays(cost)``). ``request``: (body, binary, query, settings, lease, scene, worlds,
+    notes)."""
+    body, binary, query, settings, lease, scene, worlds, notes = request
+    if progress.parsed is None:
+        progress.parsed = parse(body, binary, query, settings, lease)
+        progress.cost = decode_cost(progress.parsed, settings)
+        if not stays(progress.cost):
+            return progress
+    options = progress.parsed.options
+    if progress.bodies is None:
+        held = worlds.get(options.world) if options.world else None
+        progress.bodies = decode(progress.parsed, scene, settings, lease, held, notes)
+        progress.cost = len(progress.bodies)
+        if not stays(progress.cost):
+            return progress
+    progress.found = broadphase(progress.bodies, options, scene, settings)
+    return progress

@@ -11,8 +11,11 @@ become the API's errors: 413 naming the limit, 422 for a strict learned mode wit
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from impactnet.models.compound.candidates import TooManyCandidates
-from impactnet.models.dispatch import Caps, TooManyContacts, TooManyShapePairs
+from impactnet.models.dispatch import Answers, Caps, TooManyContacts, TooManyShapePairs
+from impactnet.models.dispatch.plan import Plan
 from impactnet.models.learned.pair_dispatch import UnsupportedPairError
 from impactnet.service.errors import LimitRefused, UnsupportedPair
 from impactnet.service.limits.budget import Lease, MemoryBudget
@@ -80,10 +83,28 @@ def _solve(dispatcher, plan, caps: Caps):
         raise _refused(exc, plan.mode, len(plan.pairs) > 1) from None
 
 
+@dataclass
+class Steps:
+    """How far a request's plan, count and solve went (:func:`_steps`)."""
+
+    plan: Plan | None = None
+    counted: bool = False
+    answers: Answers | None = None
+
+    @property
+    def done(self) -> bool:
+        return self.answers is not None
+
+    @property
+    def cost(self) -> float:
+        """The next step's known cost (box-pair solves)."""
+        return self.plan.work
+
+
 def _inline(dispatcher, pairs, mode, include, margin, caps, lease, separated=True):
     """The three steps at once, in this thread (a single box pair)."""
-    return _steps(dispatcher, pairs, None, False, (mode, include, margin, separated), caps,
-                  lease, lambda cost: True)[2]
+    return _steps(Steps(), dispatcher, pairs, (mode, include, margin, separated), caps, lease,
+                  lambda cost: True).answers
 
 
 def solve_now(dispatcher, pairs, mode: str, include, margin: float, settings):
@@ -104,31 +125,23 @@ async def solve(work: Work, state, pairs, mode: str, include=(), margin: float =
     lease = lease if lease is not None else Lease(work.runtime.budget)
     if len(pairs) == 1 and pairs.table.is_box.all():
         return _inline(dispatcher, pairs, mode, include, margin, caps, lease, separated)
-    lanes = work.runtime.lanes
-    plan, counted, answers, cost = None, False, None, len(pairs)
-    while answers is None:  # one hop per change of lane
-        lane = lanes.for_cost(cost)
-        plan, counted, answers = await work.run(
-            cost, _steps, dispatcher, pairs, plan, counted, (mode, include, margin, separated),
-            caps, lease,
-            lambda next_cost, lane=lane: lanes.for_cost(next_cost) is lane)
-        cost = plan.work
-    return answers
+    done = await work.chain(len(pairs), _steps, Steps(), dispatcher, pairs,
+                            (mode, include, margin, separated), caps, lease)
+    return done.answers
 
 
-def _steps(dispatcher, pairs, plan, counted: bool, request: tuple, caps: Caps, lease: Lease,
-           stays):
+def _steps(progress: Steps, dispatcher, pairs, request: tuple, caps: Caps, lease: Lease,
+           stays) -> Steps:
     """The steps not taken yet (the plan, the count, the solve), for as long as the next
-    step's known cost keeps it in this thread's lane (``stays(cost)``): a hop costs ~0.1 ms
-    each way, a third of a small compound pair's solve. ``request``: (mode, include, margin,
-    separated).
-    Returns (plan, counted, answers or None)."""
-    if plan is None:
-        plan = _plan(dispatcher, pairs, *request, caps)
-        if not stays(plan.work):
-            return plan, False, None
-    if not counted:
-        plan = _count(dispatcher, plan, caps, lease)
-        if not stays(plan.work):
-            return plan, True, None
-    return plan, True, _solve(dispatcher, plan, caps)
+    step's known cost keeps it in this thread's lane (``stays(cost)``: :meth:`Work.chain`).
+    ``request``: (mode, include, margin, separated)."""
+    if progress.plan is None:
+        progress.plan = _plan(dispatcher, pairs, *request, caps)
+        if not stays(progress.plan.work):
+            return progress
+    if not progress.counted:
+        progress.plan, progress.counted = _count(dispatcher, progress.plan, caps, lease), True
+        if not stays(progress.plan.work):
+            return progress
+    progress.answers = _solve(dispatcher, progress.plan, caps)
+    return progress

@@ -73,6 +73,22 @@ def test_a_frame_at_margin_0_asks_no_gap_of_the_pairs_it_drops(detail, margin, a
     assert (("c2", "s1") in {(p["a"], p["b"]) for p in answer["pairs"]}) is asked
 
 
+def test_a_small_frame_takes_one_hop_to_its_pairs_one_to_its_answers_one_to_its_text(
+        detail, monkeypatch):
+    from impactnet.service.limits.lanes import Work
+
+    hops = []
+    run = Work.run
+
+    async def counted(self, cost, function, *args):
+        hops.append(function.__name__)
+        return await run(self, cost, function, *args)
+
+    monkeypatch.setattr(Work, "run", counted)
+    _frame(detail, [*STACK, SPREADER])  # parse, decode, broadphase: one thread, one hop
+    assert hops == ["advance", "_steps", "frame_json"]
+
+
 def test_a_registered_world_stands_in_for_its_bodies(detail):
     registered = detail.post("/v2/worlds", json={"bodies": STACK})
     assert registered.status_code == 200, registered.text

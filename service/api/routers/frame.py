@@ -81,14 +81,9 @@ async def frame(
              "include": include, "euler_convention": euler_convention}
     notes: list[str] = []
     async with Work(runtime, request.receive) as work:
-        parsed = await work.run(steps.parse_cost(body), steps.parse, body, binary, query,
-                                settings, lease)
-        options = parsed.options
-        held = runtime.worlds.get(options.world) if options.world else None
-        bodies = await work.run(steps.decode_cost(parsed, settings), steps.decode, parsed,
-                                state.scene, settings, lease, held, notes)
-        found = await work.run(len(bodies), steps.broadphase, bodies, options, state.scene,
-                               settings)
+        done = await work.chain(steps.parse_cost(body), steps.advance, steps.Prepared(), (
+            body, binary, query, settings, lease, state.scene, runtime.worlds, notes))
+        options, bodies, found = done.parsed.options, done.bodies, done.found
         chosen = options.mode or state.default_mode
         answers = await solve(work, state, found.pairs, chosen, options.include,
                               options.margin, lease, separated=False)
