@@ -13,7 +13,10 @@ A few kilobytes of deflated zeros can declare millions of rows (a 66 KB archive 
 4. the decoded size (the members as stored plus their float64 copies) is reserved in the
    request's memory lease (503 when there is no room);
 
-and only then are the members decompressed and read, with ``allow_pickle=False``.
+and only then are the members decompressed and read, with ``allow_pickle=False``. An archive
+of stored members (what ``numpy.savez`` and the client write) is walked in one pass over the
+body (:mod:`impactnet.service.codecs.npz_format`, each member's CRC-32 checked with its
+header); any other goes through ``zipfile``, the same checks in the same order.
 """
 from __future__ import annotations
 
@@ -25,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from impactnet.service.codecs import npz_format as nf
 from impactnet.service.codecs import scan
 from impactnet.service.codecs.columns import COLUMNS, tail_of, too_many_pairs, unknown_column
 from impactnet.service.errors import InputError, Overloaded, PayloadTooLarge
@@ -55,6 +59,45 @@ def _header(archive: zipfile.ZipFile, member: zipfile.ZipInfo) -> tuple[tuple, n
 
 
 @dataclass(frozen=True)
+class _Entry:
+    """A member as the checks see it, from the one-pass reader or from ``zipfile``."""
+
+    name: str  # its file name
+    size: int  # its bytes, uncompressed
+    header: Callable  # () -> (shape, dtype), read when the checks reach it
+    array: Callable  # () -> the member's array, read once every check has passed
+
+
+def _stored_entries(body: bytes) -> list[_Entry]:
+    """The members of an archive of stored members, read in one pass
+    (:mod:`impactnet.service.codecs.npz_format`; raises ``Unusual`` for another archive)."""
+    entries = []
+    for member in nf.stored_members(body):
+        def header(member=member):
+            nf.crc_checked(body, member)
+            found = nf.npy_header(body, member)
+            return found.shape, found.dtype
+
+        entries.append(_Entry(member.name, member.size, header,
+                              lambda member=member: nf.npy_array(
+                                  body, nf.npy_header(body, member))))
+    return entries
+
+
+def _zip_entries(body: bytes) -> list[_Entry]:
+    """The members of any other archive (compressed members), through ``zipfile``."""
+    archive = zipfile.ZipFile(io.BytesIO(body))
+
+    def array(member):
+        with archive.open(member) as f:
+            return np.lib.format.read_array(f, allow_pickle=False,
+                                            max_header_size=_NPY_HEADER_MAX)
+
+    return [_Entry(m.filename, m.file_size, lambda m=m: _header(archive, m),
+                   lambda m=m: array(m)) for m in archive.infolist()]
+
+
+@dataclass(frozen=True)
 class Layout:
     """What an npz body may hold: its columns, a row's shape in each, the 413 past the cap."""
 
@@ -75,30 +118,30 @@ def _rows(column: str, shape: tuple, layout: Layout) -> int:
     return int(shape[0]) if len(shape) == per_pair_ndim else 1
 
 
-def _checked(archive: zipfile.ZipFile, max_pairs: int, layout: Layout) -> tuple[list, int]:
+def _checked(entries: list[_Entry], max_pairs: int, layout: Layout) -> tuple[list, int]:
     """Members with their column names, and their decoded size in bytes (step 3)."""
     members, decoded = [], 0
-    for member in archive.infolist():
-        name = member.filename
+    for entry in entries:
+        name = entry.name
         column = name[:-4]
         if not name.endswith(".npy") or any(column == c for _, c in members):
             raise InputError("body", f"npz member {name!r}: expected one <column>.npy per "
                              "column", type_="npz_invalid")
         if column not in layout.columns:
             raise layout.unknown(column)
-        shape, dtype = _header(archive, member)
+        shape, dtype = entry.header()
         if dtype.hasobject:
             raise InputError(column, "object arrays are not accepted (no pickle)",
                              type_="npz_invalid")
         count = math.prod(shape)
-        if count * dtype.itemsize > member.file_size:
+        if count * dtype.itemsize > entry.size:
             raise ValueError(f"member {name!r} is shorter than its header says")
         rows = _rows(column, shape, layout)
         if rows > max_pairs:
             raise layout.too_many(rows, max_pairs)
         copy = 0 if layout.tail(column) is None else count * FLOAT64_BYTES
-        decoded += member.file_size + copy
-        members.append((member, column))
+        decoded += entry.size + copy
+        members.append((entry, column))
     return members, decoded
 
 
@@ -112,18 +155,16 @@ def parse_npz(body: bytes, max_bytes: int, max_pairs: int, lease: Lease,
         raise InputError("body", f"npz with more than {MAX_MEMBERS} members; a batch has at "
                          "most 12 columns, a frame 9", type_="npz_invalid")
     try:
-        archive = zipfile.ZipFile(io.BytesIO(body))
-        if sum(m.file_size for m in archive.infolist()) > max_bytes:
+        try:
+            entries = _stored_entries(body)
+        except nf.Unusual:
+            entries = _zip_entries(body)
+        if sum(e.size for e in entries) > max_bytes:
             raise PayloadTooLarge("body_too_large", f"npz body expands beyond the limit of "
                                   f"{max_bytes} bytes")
-        members, decoded = _checked(archive, max_pairs, layout)
+        members, decoded = _checked(entries, max_pairs, layout)
         lease.reserve(decoded, "decoding the npz body")
-        columns = {}
-        for member, column in members:
-            with archive.open(member) as f:
-                columns[column] = np.lib.format.read_array(
-                    f, allow_pickle=False, max_header_size=_NPY_HEADER_MAX)
-        return columns
+        return {column: entry.array() for entry, column in members}
     except (InputError, PayloadTooLarge, Overloaded):
         raise
     except Exception as exc:  # noqa: BLE001 - any fault of untrusted bytes is a bad body

@@ -18,6 +18,7 @@ import re
 import struct
 import zlib
 from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -36,13 +37,16 @@ ZIP64_FROM = _FULL32
 #: ``numpy.savez``'s).
 _PLAIN_MAX_BYTES = 0x7FFF0000
 _NPY_MAGIC = b"\x93NUMPY"
+#: Largest ``.npy`` header read, bytes (numpy writes ~128; numpy.load's own limit is 10,000).
+NPY_HEADER_MAX = 10_000
 _DESCR = re.compile(r"""['"]descr['"]\s*:\s*['"]([^'"]+)['"]""")
 _FORTRAN = re.compile(r"""['"]fortran_order['"]\s*:\s*(True|False)""")
 _SHAPE = re.compile(r"""['"]shape['"]\s*:\s*\(([^)]*)\)""")
 
 
-class _Unusual(Exception):
-    """Not what the fast path reads: ``numpy.load`` reads it."""
+class Unusual(Exception):
+    """Not what the one-pass reader reads (compressed members, structured dtypes, another
+    header): ``numpy.load`` or ``zipfile`` reads it."""
 
 
 def _zip64_values(extra: bytes, wanted: int) -> list[int]:
@@ -52,26 +56,26 @@ def _zip64_values(extra: bytes, wanted: int) -> list[int]:
         key, size = struct.unpack_from("<2H", extra, at)
         if key == _ZIP64_EXTRA:
             if size < 8 * wanted:
-                raise _Unusual()
+                raise Unusual()
             return list(struct.unpack_from(f"<{wanted}Q", extra, at + 4))
         at += 4 + size
-    raise _Unusual()
+    raise Unusual()
 
 
 def _directory(data: memoryview) -> tuple[int, int]:
     """(offset, entries) of the central directory."""
     end = bytes(data[-(22 + _FULL16):]).rfind(_EOCD)
     if end < 0:
-        raise _Unusual()
+        raise Unusual()
     end += max(0, len(data) - (22 + _FULL16))
     entries, size, offset = struct.unpack_from("<H2I", data, end + 10)
     if _FULL32 in (size, offset) or entries == _FULL16:
         locator = end - 20
         if locator < 0 or bytes(data[locator:locator + 4]) != _LOCATOR:
-            raise _Unusual()
+            raise Unusual()
         (record,) = struct.unpack_from("<Q", data, locator + 8)
         if bytes(data[record:record + 4]) != _EOCD64:
-            raise _Unusual()
+            raise Unusual()
         entries, size, offset = struct.unpack_from("<3Q", data, record + 32)
     return offset, entries
 
@@ -83,7 +87,7 @@ def _members(data: memoryview):
         (signature, _, _, flags, method, _, _, crc, packed, size, name_length, extra_length,
          comment_length, _, _, _, local) = _CENTRAL_ENTRY.unpack_from(data, at)
         if signature != _CENTRAL or method != 0 or flags & 1 or packed != size:
-            raise _Unusual()
+            raise Unusual()
         name = bytes(data[at + 46:at + 46 + name_length]).decode()
         extra = bytes(data[at + 46 + name_length:at + 46 + name_length + extra_length])
         if _FULL32 in (size, local):  # zip64: the values marked full, in this order
@@ -94,50 +98,91 @@ def _members(data: memoryview):
             local = next(values) if local == _FULL32 else local
         header = _LOCAL_ENTRY.unpack_from(data, local)
         if header[0] != _LOCAL:
-            raise _Unusual()
+            raise Unusual()
         start = local + 30 + header[9] + header[10]
         yield name, start, size, crc
         at += 46 + name_length + extra_length + comment_length
 
 
-def _array(buffer, start: int, size: int) -> np.ndarray:
-    """The array of one ``.npy`` member at ``buffer[start:start + size]``."""
-    head = bytes(buffer[start:start + 12])
+@dataclass(frozen=True)
+class Member:
+    """A stored member of an archive: its name and where its bytes are."""
+
+    name: str  # as stored, ``.npy`` included
+    start: int  # offset of its bytes in the archive
+    size: int  # its bytes
+    crc: int  # their CRC-32, from the central directory
+
+
+def stored_members(data: bytes) -> list[Member]:
+    """Every member of an archive of stored members (raises :class:`Unusual` for another
+    archive, ``struct.error`` or ``UnicodeDecodeError`` for a damaged one)."""
+    return [Member(*found) for found in _members(memoryview(data))]
+
+
+def crc_checked(data: bytes, member: Member) -> None:
+    """Raise ValueError where the member's bytes do not have its CRC-32."""
+    if zlib.crc32(memoryview(data)[member.start:member.start + member.size]) != member.crc:
+        raise ValueError(f"npz member {member.name!r}: bad CRC-32")
+
+
+@dataclass(frozen=True)
+class NpyHeader:
+    """What a ``.npy`` member's header says."""
+
+    shape: tuple[int, ...]
+    dtype: np.dtype
+    fortran: bool
+    offset: int  # where the data starts in the archive
+
+
+def npy_header(data: bytes, member: Member) -> NpyHeader:
+    """A member's ``.npy`` header (raises :class:`Unusual` for a header this reader does not
+    parse, ValueError for a negative dimension or a member shorter than its shape says)."""
+    start = member.start
+    head = bytes(data[start:start + 12])
     if head[:6] != _NPY_MAGIC or head[6] not in (1, 2, 3):
-        raise _Unusual()
+        raise Unusual()
     length, skip = (struct.unpack_from("<H", head, 8)[0], 10) if head[6] == 1 else \
         (struct.unpack_from("<I", head, 8)[0], 12)
-    text = bytes(buffer[start + skip:start + skip + length]).decode("latin1")
+    if length > NPY_HEADER_MAX:
+        raise ValueError(f"npy header of {length} bytes")
+    text = bytes(data[start + skip:start + skip + length]).decode("latin1")
     descr, fortran, shape = _DESCR.search(text), _FORTRAN.search(text), _SHAPE.search(text)
     if descr is None or fortran is None or shape is None:
-        raise _Unusual()
+        raise Unusual()
     dtype = np.dtype(descr.group(1))
-    if dtype.hasobject:
-        raise ValueError("Object arrays cannot be loaded when allow_pickle=False")
     dims = tuple(int(d) for d in shape.group(1).split(",") if d.strip())
-    count = math.prod(dims)
+    if any(d < 0 for d in dims):
+        raise ValueError(f"negative dimension in shape {dims}")
     offset = start + skip + length
-    if offset + count * dtype.itemsize > start + size:
-        raise ValueError("npz member shorter than its header says")
-    array = np.frombuffer(buffer, dtype, count, offset).copy()  # aligned, writable, owned
-    if fortran.group(1) == "True":
-        return array.reshape(dims[::-1]).T
-    return array.reshape(dims)
+    if offset + math.prod(dims) * dtype.itemsize > start + member.size:
+        raise ValueError(f"npz member {member.name!r} is shorter than its header says")
+    return NpyHeader(dims, dtype, fortran.group(1) == "True", offset)
+
+
+def npy_array(data: bytes, header: NpyHeader) -> np.ndarray:
+    """A member's array, of its own (aligned and writable, as ``numpy.load``'s)."""
+    array = np.frombuffer(data, header.dtype, math.prod(header.shape), header.offset).copy()
+    if header.fortran:
+        return array.reshape(header.shape[::-1]).T
+    return array.reshape(header.shape)
 
 
 def read_npz(data: bytes) -> dict[str, np.ndarray]:
     """Every member of an npz archive, by name (``.npy`` dropped), as arrays of their own
     (aligned and writable, as ``numpy.load``'s); object arrays are refused as ``numpy.load``
     refuses them without ``allow_pickle``."""
-    view = memoryview(data)
     try:
-        found = list(_members(view))
-        for name, start, size, crc in found:
-            if zlib.crc32(view[start:start + size]) != crc:
-                raise ValueError(f"npz member {name!r}: bad CRC-32")
-        return {name.removesuffix(".npy"): _array(view, start, size)
-                for name, start, size, _ in found}
-    except (_Unusual, struct.error, UnicodeDecodeError):
+        members = stored_members(data)
+        headers = [npy_header(data, member) for member in members]
+        for member, header in zip(members, headers, strict=True):
+            crc_checked(data, member)
+            if header.dtype.hasobject:
+                raise ValueError("Object arrays cannot be loaded when allow_pickle=False")
+        return {member.name.removesuffix(".npy"): npy_array(data, header)
+                for member, header in zip(members, headers, strict=True)}
+    except (Unusual, struct.error, UnicodeDecodeError):
         with np.load(io.BytesIO(data), allow_pickle=False) as archive:
             return {name: archive[name] for name in archive.files}
 
