@@ -119,13 +119,14 @@ class Plan:
     include: tuple = ()  # "manifold"
     margin: float = 0.0  # metres: pairs apart by less get their distance and closest points
     separated: bool = True  # rows without contact get their separating direction (a frame
-    # at margin 0 drops them: False spares their gap query)
+    # at margin 0 drops them: False asks the gap query only of rows whose part bounds met)
     candidates: int = 0  # candidate part pairs of all groups
     work: float = 0.0  # box-pair solves
 
     @property
     def gaps(self) -> bool:
-        """Whether compound rows without contact are given their gap query's answer."""
+        """Whether every compound row without contact is given its gap query's answer (else
+        only those whose part bounds met: the dispatcher's ``_separated_rows``)."""
         return self.separated or self.margin > 0.0
 
     def memory_bytes(self, contacts_cap: int | None) -> int:

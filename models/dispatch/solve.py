@@ -90,8 +90,7 @@ class Dispatcher:
             checkpoint()
             pieces.add(plan.apart.rows, {}, ORACLE, np.zeros(0, np.int64),
                        _no_contacts(pieces.manifold))
-        if plan.gaps:
-            _separated_gaps(pieces, plan)
+        _separated_gaps(pieces, plan)
         return pieces.merged()
 
     def answer(self, pairs: Pairs, mode: str = "exact", include=(), margin: float = 0.0,
@@ -256,9 +255,16 @@ def _first_codes(pieces: Pieces, pairs, index: np.ndarray) -> np.ndarray:
 
 def _separated_rows(pieces: Pieces, plan: plans.Plan) -> np.ndarray:
     """The compound rows without contact, once their groups are solved: the near groups' rows
-    that do not touch, then the rows that cannot touch."""
-    rows = [g.rows[~pieces.body["colliding"][g.rows]] for g in plan.groups]
-    rows += [plan.apart.rows] if plan.apart is not None else []
+    that do not touch, then the rows that cannot touch. Where the caller drops the rows apart
+    beyond a margin of 0 (:attr:`Plan.gaps` False), only the rows whose part bounds met: a
+    row whose parts overlap while its contacts were all filtered (on covered surfaces) has a
+    gap of 0 and is kept, as the pairwise API keeps it; the others' gaps are positive."""
+    colliding = pieces.body["colliding"]
+    if not plan.gaps:
+        rows = [g.rows[~colliding[g.rows] & (g.candidates.counts > 0)] for g in plan.groups]
+    else:
+        rows = [g.rows[~colliding[g.rows]] for g in plan.groups]
+        rows += [plan.apart.rows] if plan.apart is not None else []
     return np.concatenate(rows) if rows else np.zeros(0, np.int64)
 
 

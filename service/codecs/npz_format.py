@@ -62,8 +62,8 @@ def _zip64_values(extra: bytes, wanted: int) -> list[int]:
     raise Unusual()
 
 
-def _directory(data: memoryview) -> tuple[int, int]:
-    """(offset, entries) of the central directory."""
+def _directory(data: memoryview) -> tuple[int, int, int]:
+    """(offset, entries, size in bytes) of the central directory."""
     end = bytes(data[-(22 + _FULL16):]).rfind(_EOCD)
     if end < 0:
         raise Unusual()
@@ -77,12 +77,14 @@ def _directory(data: memoryview) -> tuple[int, int]:
         if bytes(data[record:record + 4]) != _EOCD64:
             raise Unusual()
         entries, size, offset = struct.unpack_from("<3Q", data, record + 32)
-    return offset, entries
+    return offset, entries, size
 
 
 def _members(data: memoryview):
-    """(name, start, size, crc) of every member's bytes."""
-    at, entries = _directory(data)
+    """(name, start, size, crc) of every member's bytes; the entries must fill the central
+    directory exactly (a count that says fewer would hide members: ``zipfile`` reads them)."""
+    at, entries, directory = _directory(data)
+    end = at + directory
     for _ in range(entries):
         (signature, _, _, flags, method, _, _, crc, packed, size, name_length, extra_length,
          comment_length, _, _, _, local) = _CENTRAL_ENTRY.unpack_from(data, at)
@@ -100,8 +102,12 @@ def _members(data: memoryview):
         if header[0] != _LOCAL:
             raise Unusual()
         start = local + 30 + header[9] + header[10]
-        yield name, start, size, crc
         at += 46 + name_length + extra_length + comment_length
+        if at > end:
+            raise Unusual()
+        yield name, start, size, crc
+    if at != end:
+        raise Unusual()
 
 
 @dataclass(frozen=True)
@@ -182,7 +188,7 @@ def read_npz(data: bytes) -> dict[str, np.ndarray]:
                 raise ValueError("Object arrays cannot be loaded when allow_pickle=False")
         return {member.name.removesuffix(".npy"): npy_array(data, header)
                 for member, header in zip(members, headers, strict=True)}
-    except (Unusual, struct.error, UnicodeDecodeError):
+    except Exception:  # noqa: BLE001 - anything unusual or damaged: numpy.load says what
         with np.load(io.BytesIO(data), allow_pickle=False) as archive:
             return {name: archive[name] for name in archive.files}
 

@@ -4,6 +4,7 @@ streamed members, and what the fast reader does not know goes to ``numpy.load``.
 from __future__ import annotations
 
 import io
+import struct
 import zipfile
 
 import numpy as np
@@ -102,3 +103,25 @@ def test_an_object_member_is_refused_as_numpy_load_refuses_it():
     data = _savez({"names": np.array(["a", None], dtype=object)})
     with pytest.raises(ValueError, match="allow_pickle"):
         nf.read_npz(data)
+
+
+@pytest.mark.parametrize("count", [0, 3])
+def test_an_end_record_that_counts_fewer_members_hides_none(count):
+    arrays = {"a": np.arange(3.0), "f": np.ones(2, bool), "z": np.zeros((2, 2))}
+    data = bytearray(_savez(arrays))
+    end = data.rindex(b"PK\x05\x06")
+    data[end + 8:end + 12] = struct.pack("<2H", count, count)  # entries on disk, in all
+    expected = _loaded(bytes(data))
+    assert list(expected) == list(arrays)  # zipfile walks the directory, not the count
+    _same(nf.read_npz(bytes(data)), expected)
+
+
+def test_a_truncated_member_is_read_or_refused_as_numpy_load_does():
+    data = _savez({"a": np.arange(3.0)})
+    cut = data.index(b"NUMPY") + 2
+    damaged = data[:cut] + data[cut + 60:]
+    with pytest.raises(Exception) as ours:
+        nf.read_npz(damaged)
+    with pytest.raises(Exception) as theirs:
+        _loaded(damaged)
+    assert type(ours.value) is type(theirs.value)
