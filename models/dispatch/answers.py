@@ -102,8 +102,9 @@ class _BodyColumns(dict):
         return column
 
     def put(self, name: str, rows: np.ndarray, values) -> None:
-        """Column ``name`` at ``rows`` (k,) (sorted, distinct) = ``values`` (k, ...)."""
-        if name not in self and len(rows) == self.n:  # every row, in order: take the array
+        """Column ``name`` at ``rows`` (k,) (distinct) = ``values`` (k, ...)."""
+        if name not in self and len(rows) == self.n and (
+                self.n == 1 or bool((rows[1:] > rows[:-1]).all())):  # every row, in order
             dtype, shape, _ = self._SPEC[name]
             whole = values if type(values) is np.ndarray and values.dtype == dtype else \
                 np.asarray(values, dtype)
