@@ -2,8 +2,9 @@
 ``edge x(+y,-z)``, ``vertex (+,-,+)``), a convex part's by its hull's ids (``face 3``,
 ``edge 17``, ``vertex 40``; faces first, then edges, then vertices), ``none`` for -1.
 
-The rule is :meth:`impactnet.models.dispatch.Shape.feature`; here it is applied once per
-distinct (part, id) of an answer (:class:`Labeller`), and to columns of them (:func:`labels`).
+The rule is :meth:`impactnet.models.dispatch.Shape.feature` (each shape names a feature once);
+here it is applied to an answer's part codes (:class:`Labeller`), and to columns of them, once
+per distinct (part, id) (:func:`labels`).
 
 An answer's feature is ``{id, name, kind}`` everywhere: one object in a single pair's answer,
 one column per key in a batch's (``{"id": [...], "name": [...], "kind": [...]}``), with the
@@ -20,20 +21,17 @@ NONE = ("none", "none")
 
 
 class Labeller:
-    """(name, kind) of a feature id of a part code of one answer, each distinct pair named once."""
+    """(name, kind) of a feature id of a part code of one answer (each shape names a feature
+    once: :meth:`~impactnet.models.dispatch.Shape.feature`)."""
 
     def __init__(self, answers: Answers) -> None:
-        self.answers = answers
-        self.named: dict[tuple[int, int], tuple[str, str]] = {}
+        self.shapes = answers.shapes
+        self.part_index = answers.part_index.tolist()
 
     def __call__(self, part: int, feature_id: int) -> tuple[str, str]:
-        key = (part, feature_id)
-        found = self.named.get(key)
-        if found is None:
-            a = self.answers
-            found = self.named[key] = NONE if part < 0 or feature_id < 0 else \
-                a.shapes[part].feature(int(a.part_index[part]), feature_id)
-        return found
+        if part < 0 or feature_id < 0:
+            return NONE
+        return self.shapes[part].feature(self.part_index[part], feature_id)
 
 
 def labels(label: Labeller, parts: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -20,6 +20,7 @@ header); any other goes through ``zipfile``, the same checks in the same order.
 """
 from __future__ import annotations
 
+import functools
 import io
 import math
 import zipfile
@@ -70,17 +71,18 @@ class _Entry:
 
 def _stored_entries(body: bytes) -> list[_Entry]:
     """The members of an archive of stored members, read in one pass
-    (:mod:`impactnet.service.codecs.npz_format`; raises ``Unusual`` for another archive)."""
+    (:mod:`impactnet.service.codecs.npz_format`; raises ``Unusual`` for another archive):
+    each member's CRC-32 checked and its header read when the checks reach it, once."""
     entries = []
     for member in nf.stored_members(body):
-        def header(member=member):
+        @functools.cache
+        def header(member=member) -> nf.NpyHeader:
             nf.crc_checked(body, member)
-            found = nf.npy_header(body, member)
-            return found.shape, found.dtype
+            return nf.npy_header(body, member)
 
-        entries.append(_Entry(member.name, member.size, header,
-                              lambda member=member: nf.npy_array(
-                                  body, nf.npy_header(body, member))))
+        entries.append(_Entry(member.name, member.size,
+                              lambda header=header: (header().shape, header().dtype),
+                              lambda header=header: nf.npy_array(body, header())))
     return entries
 
 

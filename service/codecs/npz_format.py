@@ -6,9 +6,9 @@ small members: ``numpy.load`` spent ~45 us on each).
 members, zip64 or not, sizes in the central directory or in data descriptors); anything else
 (compressed members, structured dtypes, an unexpected header) is read by ``numpy.load``, so
 that the result never depends on the path. Each member's CRC-32 is checked, as ``zipfile``
-does. :func:`write_npz` writes whole arrays (a client's request) the way ``numpy.savez``
-does; :func:`npz_stream` writes members given slice by slice (a server's answer, streamed),
-zip64 records where an offset or a size needs them. ``numpy.load`` reads both.
+does. :func:`npz_stream` writes members given slice by slice (a server's answer, streamed),
+zip64 records where an offset or a size needs them; :func:`write_npz` writes whole arrays (a
+client's request) through it. ``numpy.load`` reads both.
 """
 from __future__ import annotations
 
@@ -33,9 +33,6 @@ _DESCRIPTOR = b"PK\x07\x08"
 #: Offsets and sizes from this many bytes on are written in zip64 records (the zip format's
 #: 32-bit fields end at 0xFFFFFFFF, which marks a value given in the zip64 extra field).
 ZIP64_FROM = _FULL32
-#: The largest archive written without zip64 records (a client's request; larger ones are
-#: ``numpy.savez``'s).
-_PLAIN_MAX_BYTES = 0x7FFF0000
 _NPY_MAGIC = b"\x93NUMPY"
 #: Largest ``.npy`` header read, bytes (numpy writes ~128; numpy.load's own limit is 10,000).
 NPY_HEADER_MAX = 10_000
@@ -193,33 +190,17 @@ def read_npz(data: bytes) -> dict[str, np.ndarray]:
             return {name: archive[name] for name in archive.files}
 
 
-def _npy(array: np.ndarray) -> bytes:
-    """One ``.npy`` member: its header, then its data in C order."""
-    return _npy_header(array.dtype, tuple(int(d) for d in array.shape)) + \
-        np.ascontiguousarray(array).tobytes()
-
-
 def write_npz(arrays: dict) -> bytes:
-    """An npz archive of ``arrays`` (name -> array_like), as ``numpy.savez`` writes it."""
-    members = {f"{name}.npy": np.asarray(value) for name, value in arrays.items()}
-    if any(a.dtype.hasobject for a in members.values()) or len(members) >= _FULL16 or \
-            sum(a.nbytes for a in members.values()) > _PLAIN_MAX_BYTES:
+    """An npz archive of ``arrays`` (name -> array_like) in one piece (:func:`npz_stream`,
+    each array a member), which ``numpy.load`` reads as ``numpy.savez``'s; object arrays are
+    ``numpy.savez``'s own (pickled: the service refuses them, naming the column)."""
+    members = {name: np.asarray(value) for name, value in arrays.items()}
+    if any(a.dtype.hasobject for a in members.values()):
         buffer = io.BytesIO()
-        np.savez(buffer, **{name.removesuffix(".npy"): a for name, a in members.items()})
+        np.savez(buffer, **members)
         return buffer.getvalue()
-    parts, central, at = [], [], 0
-    for name, array in members.items():
-        body, encoded = _npy(array), name.encode()
-        crc = zlib.crc32(body)
-        parts += [_LOCAL_ENTRY.pack(_LOCAL, 20, 0, 0, 0, 0x21, crc, len(body), len(body),
-                                    len(encoded), 0), encoded, body]
-        central += [_CENTRAL_ENTRY.pack(_CENTRAL, 20, 20, 0, 0, 0, 0x21, crc, len(body),
-                                        len(body), len(encoded), 0, 0, 0, 0, 0, at), encoded]
-        at += 30 + len(encoded) + len(body)
-    directory = b"".join(central)
-    end = struct.pack("<4s4H2IH", _EOCD, 0, 0, len(members), len(members), len(directory),
-                      at, 0)
-    return b"".join(parts) + directory + end
+    return b"".join(npz_stream(((name, a.dtype, a.shape, (a,)) for name, a in members.items()),
+                               piece_bytes=math.inf))
 
 
 @lru_cache(maxsize=1024)

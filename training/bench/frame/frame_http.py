@@ -39,13 +39,6 @@ NO_OPTIONS = {"world": None, "margin": None, "pairs": None, "mode": None, "inclu
               "euler_convention": None}
 
 
-def _npz(columns: dict) -> bytes:
-    """The request's npz, as the client writes it."""
-    from impactnet.service.codecs.npz_format import write_npz
-
-    return write_npz(columns)
-
-
 def _sent(columns: dict, moving: int):
     """The columns of the last ``moving`` bodies at given poses (a call's request)."""
     def at(position, quaternion):
@@ -62,6 +55,7 @@ def server_stages(scene_path: str, columns: dict, world, http_call, args: tuple)
     from impactnet.models.frame import frame_answer
     from impactnet.service import frame_steps as steps
     from impactnet.service.codecs.frame_answers import frame_npz
+    from impactnet.service.codecs.npz_format import read_npz, write_npz
     from impactnet.service.limits.budget import Lease, MemoryBudget
     from impactnet.service.scene import load_scene_view
     from impactnet.service.settings import Settings
@@ -80,7 +74,7 @@ def server_stages(scene_path: str, columns: dict, world, http_call, args: tuple)
         registry = Worlds(1)
         registry.add(BENCH_WORLD, steps.decode(parsed, scene, settings, Lease(budget)))
         held = registry.get(BENCH_WORLD)
-    body = _npz(columns)
+    body = write_npz(columns)
     query = {**NO_OPTIONS, "world": BENCH_WORLD if world is not None else None}
     parsed = steps.parse(body, True, query, settings, Lease(budget))
     bodies = steps.decode(parsed, scene, settings, Lease(budget), held, [])
@@ -89,7 +83,7 @@ def server_stages(scene_path: str, columns: dict, world, http_call, args: tuple)
     result = frame_answer(bodies, found, answers)
     answer = b"".join(frame_npz(result, (), "exact", "bench"))
     stages = {
-        "client: the request's npz": lambda: _npz(columns),
+        "client: the request's npz": lambda: write_npz(columns),
         "server: parse the npz": lambda: steps.parse(body, True, query, settings,
                                                      Lease(budget)),
         "server: decode the bodies (and join the world)":
@@ -100,16 +94,9 @@ def server_stages(scene_path: str, columns: dict, world, http_call, args: tuple)
         "server: the frame's answer": lambda: frame_answer(bodies, found, answers),
         "server: encode the npz answer": lambda: b"".join(frame_npz(result, (), "exact",
                                                                     "bench")),
-        "client: read the answer": lambda: _read(answer),
+        "client: read the answer": lambda: read_npz(answer),
     }
     return stages, lambda: http_call(*args)
-
-
-def _read(data: bytes) -> dict:
-    """The answer's arrays, as the client reads them."""
-    from impactnet.service.codecs.npz_format import read_npz
-
-    return read_npz(data)
 
 
 def _ids(answer: dict) -> set[tuple[str, str]]:
