@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 
 from impactnet.service.errors import ReloadFailed
-from impactnet.service.predictors import warm_up
+from impactnet.service.predictors import settle_heap, warm_up
 from impactnet.service.runtime import Runtime
 from impactnet.service.state import LoadError, configured_bundle, state_for
 
@@ -103,6 +103,8 @@ class Reloader:
             new = state_for(old.scene, path, runtime.settings, on_step=self._at)
             self._at("warm_up")
             warm_up(new)
+            if runtime.settings.freeze_heap:
+                settle_heap()
         except LoadError as exc:
             raise ReloadFailed(422, exc.step, str(exc), str(path), serving) from exc
         except Exception as exc:  # noqa: BLE001 - whatever breaks, the old state keeps serving

@@ -20,7 +20,7 @@ from impactnet.service.limits.saturation import Saturation
 from impactnet.service.limits.trim import Trimmer
 from impactnet.service.limits.uploads import Uploads
 from impactnet.service.metrics import Metrics
-from impactnet.service.predictors import ServingState, warm_up
+from impactnet.service.predictors import ServingState, settle_heap, warm_up
 from impactnet.service.settings import Settings
 from impactnet.service.state import build_state
 from impactnet.service.worlds import Worlds
@@ -128,6 +128,8 @@ class Runtime:
                                          "seconds": round(time.perf_counter() - started, 3)})
         state = prebuilt or build_state(self.settings)
         warm_up(state)
+        if self.settings.freeze_heap:
+            settle_heap()
         return state
 
     async def load(self, prebuilt: ServingState | None = None) -> None:

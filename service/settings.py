@@ -173,6 +173,10 @@ class Settings(BaseSettings):
     # Load the scene / bundle and warm up in the background, so /healthz answers at once and
     # /readyz says 503 until ready. False: load before the first request is served.
     load_in_background: bool = True
+    # Once loaded and warmed up (and after each reload), exempt the objects alive from the
+    # cyclic garbage collector's passes (service/predictors.py settle_heap): each full pass
+    # stalled the event loop ~70 ms. Tests that build many apps in one process turn it off.
+    freeze_heap: bool = True
     # Threads of the compiled kernels' parallel loops (one parallel launch at a time per
     # process: models/compiled.py). None: the cores this process may use; a fleet sets it per
     # replica (docker/compose.yaml: 1 per replica limited to one core).

@@ -124,7 +124,8 @@ async def solve(work: Work, state, pairs, mode: str, include=(), margin: float =
     caps, dispatcher = caps_of(settings), state.dispatcher
     lease = lease if lease is not None else Lease(work.runtime.budget)
     if len(pairs) == 1 and pairs.table.is_box.all():
-        return _inline(dispatcher, pairs, mode, include, margin, caps, lease, separated)
+        return await work.inline(_inline, dispatcher, pairs, mode, include, margin, caps, lease,
+                                 separated)
     done = await work.chain(len(pairs), _steps, Steps(), dispatcher, pairs,
                             (mode, include, margin, separated), caps, lease)
     return done.answers

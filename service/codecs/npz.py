@@ -33,7 +33,7 @@ from impactnet.service.codecs import npz_format as nf
 from impactnet.service.codecs import scan
 from impactnet.service.codecs.columns import COLUMNS, tail_of, too_many_pairs, unknown_column
 from impactnet.service.errors import InputError, Overloaded, PayloadTooLarge
-from impactnet.service.limits.budget import Lease
+from impactnet.service.limits.budget import Lease, NeedMemory
 
 #: Most members an npz body may hold: a batch has at most 6 columns per side, 12 in all; a
 #: frame 9.
@@ -167,7 +167,7 @@ def parse_npz(body: bytes, max_bytes: int, max_pairs: int, lease: Lease,
         members, decoded = _checked(entries, max_pairs, layout)
         lease.reserve(decoded, "decoding the npz body")
         return {column: entry.array() for entry, column in members}
-    except (InputError, PayloadTooLarge, Overloaded):
+    except (InputError, PayloadTooLarge, Overloaded, NeedMemory):
         raise
     except Exception as exc:  # noqa: BLE001 - any fault of untrusted bytes is a bad body
         raise InputError("body", f"malformed npz: {type(exc).__name__}: {exc}",

@@ -11,6 +11,10 @@ client's disconnect.
   ``deadline_exceeded``.
 * **Disconnect.** While a request computes, its client's connection is watched; when the client
   goes away the same limit is cancelled, and the work stops at its next chunk.
+* **Memory.** A step that finds no room in the memory budget gives its thread back
+  (:class:`impactnet.service.limits.budget.NeedMemory`), waits for the bytes on the event
+  loop in the budget's queue, and runs again with them paid: no worker thread ever waits for
+  memory.
 
 A request's steps (parse, admit, solve) may run in different lanes one after another, each
 chosen by what is known of the cost at that step (:meth:`Work.run`).
@@ -26,6 +30,7 @@ from starlette.types import Receive
 
 from impactnet.models.work import CANCELLED, WorkLimit, WorkStopped, limited
 from impactnet.service.errors import DeadlineExceeded, Overloaded, ServiceError
+from impactnet.service.limits.budget import DEFER_WAITS, NeedMemory
 
 #: Threads of the small-work lane: one, so that small work never competes with itself for
 #: the two cores, and the large lane keeps its `max_batch_workers`.
@@ -107,8 +112,30 @@ class Work:
 
     async def run(self, cost: float, function, *args):
         """``function(*args)`` in the lane for ``cost``, under the request's limit and with
-        its context (the request id); 503 when the large lane's queue is full, 504 past the
-        deadline, :class:`ClientGone` when the client left."""
+        its context (the request id); run again after the memory it found missing is paid
+        (module docstring); 503 when the large lane's queue is full, 504 past the deadline,
+        :class:`ClientGone` when the client left."""
+        while True:
+            try:
+                return await self._run_once(cost, function, args)
+            except NeedMemory as need:
+                missing = need
+            await missing.lease.prepay(missing)
+
+    async def inline(self, function, *args):
+        """``function(*args)`` here on the event loop (work cheaper than a hop to a lane),
+        run again after the memory it found missing is paid on the loop."""
+        while True:
+            token = DEFER_WAITS.set(True)
+            try:
+                return function(*args)
+            except NeedMemory as need:
+                missing = need
+            finally:
+                DEFER_WAITS.reset(token)
+            await missing.lease.prepay(missing)
+
+    async def _run_once(self, cost: float, function, args: tuple):
         limit, lanes = self.limit, self.runtime.lanes
         self._watch()
         context = contextvars.copy_context()
@@ -120,6 +147,7 @@ class Work:
 
         def call():
             loop.call_soon_threadsafe(self._left_queue, step)
+            DEFER_WAITS.set(True)
             with limited(limit):
                 return function(*args)
 

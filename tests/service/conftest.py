@@ -49,8 +49,10 @@ def pair(**changes) -> dict:
 def test_settings(**overrides) -> Settings:
     """Settings of an in-process test app: loaded before the first request, no access log,
     and no learned bundle unless one is given (the shipped default bundle, when there is
-    one, must not change what these tests see)."""
-    base = {"load_in_background": False, "access_log": False, "bundle": "none"}
+    one, must not change what these tests see), and the heap not frozen (many apps are built
+    in one process)."""
+    base = {"load_in_background": False, "access_log": False, "bundle": "none",
+            "freeze_heap": False}
     return Settings(**(base | overrides))
 
 

@@ -9,7 +9,10 @@ Reproducers, all against one server with a 256 MiB budget, while /healthz is pro
   bracket count, before it is parsed, in the simple layout and in the one parsed whole;
 * sixteen ~100 KB npz batches of 100,000 pairs (broadcast sizes, int8 positions) asking for
   the manifold and the paper's angles as JSON (27 MB answers; 16 of them peaked at 2.46 GB):
-  each served, or refused with 503 ``overloaded`` and Retry-After.
+  each refused with 503 ``overloaded`` and Retry-After or served, and, sent again after the
+  Retry-After, every one served within :data:`ALL_SERVED_WITHIN_S`. (Before the budget's
+  queue, the requests queued for a worker held the memory the workers waited for: the
+  sixteen took 75-113 s to be served, ~0.5 s of work each.)
 
 The server's peak resident memory (VmHWM) may exceed its resident memory when ready by at most
 the budget, and /healthz keeps its p99 under 100 ms.
@@ -19,6 +22,7 @@ from __future__ import annotations
 import io
 import socket
 import threading
+import time
 
 import numpy as np
 import orjson
@@ -41,6 +45,12 @@ JSON_ROWS_OVER_BODY_LIMIT = 8_300_000
 JSON_ROWS_UNDER_BODY_LIMIT = 4_190_000
 MANIFOLD_ROWS = 100_000
 PARALLEL_MANIFOLD_BATCHES = 16
+#: Seconds within which the sixteen manifold batches, each sent again after its Retry-After
+#: until served, must all be served: ~0.5 s of work each on a 2-core machine, two at a time
+#: at best within the budget (~4-9 s), with room for a slow CI machine.
+ALL_SERVED_WITHIN_S = 60.0
+#: Sends of one batch before its client gives up (each refusal waits its Retry-After, 1 s).
+MAX_SENDS = 60
 NPZ = {"Content-Type": "application/x-npz"}
 MANIFOLD = "/v2/contact/batch?include=manifold&include=paper_angles"
 
@@ -88,15 +98,34 @@ def _parallel(count: int, call) -> list:
     return results
 
 
-def _check_manifold_answer(status: int, headers: dict, body: bytes) -> str:
+def _outcome(status: int, headers: dict, body: bytes) -> str:
+    """A 503 checked; a 200 checked by :func:`_check_served` once every client is done (a
+    27 MB answer parsed in the clients' process while the others read would slow their
+    reading, and so the server)."""
     if status == 503:
         assert orjson.loads(body)["error"] == "overloaded" and headers["retry-after"]
         return "refused"
     assert status == 200, body[:300]
+    return "served"
+
+
+def _check_served(body: bytes) -> None:
     # the whole answer: the batch's columns, the part contacts' columns last
     assert body.startswith(b'{"n":%d,' % MANIFOLD_ROWS) and body.endswith(b"]}}")
     assert len(orjson.loads(body)["contacts"]["offsets"]) == MANIFOLD_ROWS + 1
-    return "served"
+
+
+def _sent_until_served(port: int, body: bytes) -> tuple[list[str], float, bytes]:
+    """A well-behaved client: the batch sent again after each 503's Retry-After; the outcome
+    of each send, the seconds until served, and the answer."""
+    started, outcomes = time.monotonic(), []
+    for _ in range(MAX_SENDS):
+        status, headers, answer = post(port, MANIFOLD, body, NPZ, timeout=300)
+        outcomes.append(_outcome(status, headers, answer))
+        if outcomes[-1] == "served":
+            break
+        time.sleep(float(headers["retry-after"]))
+    return outcomes, time.monotonic() - started, answer
 
 
 @pytest.mark.slow
@@ -114,8 +143,8 @@ def test_amplifying_requests_stay_within_the_memory_budget(server_factory):
         over = _refused_unread(proc.port, JSON_ROWS_OVER_BODY_LIMIT * 8 + 200)
         under = [post(proc.port, "/v2/contact/batch", _rows_json(JSON_ROWS_UNDER_BODY_LIMIT, n))
                  for n in (False, True)]
-        answers = _parallel(PARALLEL_MANIFOLD_BATCHES, lambda: post(
-            proc.port, MANIFOLD, manifold_batch, NPZ, timeout=300))
+        clients = _parallel(PARALLEL_MANIFOLD_BATCHES,
+                            lambda: _sent_until_served(proc.port, manifold_batch))
     peak = memory_kib(proc.proc.pid)["VmHWM"] * 1024
 
     assert len(bomb) < 70_000 and len(manifold_batch) < 200_000
@@ -124,12 +153,19 @@ def test_amplifying_requests_stay_within_the_memory_budget(server_factory):
     assert over.startswith(b"HTTP/1.1 413") and b"body_too_large" in over
     for status, _, body in under:
         assert status == 413 and orjson.loads(body)["error"] == "batch_too_large", body
-    outcomes = [_check_manifold_answer(*answer) for answer in answers]
-    assert outcomes.count("served") >= 2, outcomes
+    first = [outcomes[0] for outcomes, _, _ in clients]
+    assert first.count("served") >= 2, first
+    assert all(outcomes[-1] == "served" for outcomes, _, _ in clients), clients
+    slowest = max(seconds for _, seconds, _ in clients)
+    assert slowest <= ALL_SERVED_WITHIN_S, [seconds for _, seconds, _ in clients]
+    for _, _, answer in clients:
+        _check_served(answer)
     assert health.p99() <= HEALTHZ_P99_MS, (health.p99(), max(health.ms))
+    sends = sum(len(outcomes) for outcomes, _, _ in clients)
     print(f"\nmemory: ready {ready / 2**20:.0f} MiB, peak {peak / 2**20:.0f} MiB (+"
           f"{(peak - ready) / 2**20:.0f} MiB, budget {BUDGET / 2**20:.0f} MiB); manifold "
-          f"batches {outcomes.count('served')} served, {outcomes.count('refused')} refused; "
+          f"batches: {first.count('served')} served at once, all served in {slowest:.1f} s "
+          f"after {sends} sends; "
           f"/healthz p99 {health.p99():.1f} ms, max {max(health.ms):.1f} ms over "
           f"{len(health.ms)} probes")
     assert peak - ready <= BUDGET
