@@ -18,8 +18,9 @@ How a reservation that does not fit now is served:
   memory would hold up the requests queued behind it, and those may hold the very memory it
   waits for.
 * **First come, first served, by the request's age.** Waiters are served oldest request first,
-  and a younger request cannot take room while an older one waits: a large request is not
-  starved by a stream of small ones.
+  and a younger request cannot take room while an older one waits (a large request is not
+  starved by a stream of smaller ones), unless it takes at most :data:`PASSING_BYTES` (a single
+  pair).
 * **No request waits for ever.** A wait ends after ``memory_wait_s`` with 503 ``overloaded``
   and Retry-After. When the memory held by waiting requests leaves too little room for the
   oldest waiter even after every running request has finished, nobody could ever be served
@@ -47,6 +48,11 @@ DEFER_WAITS = contextvars.ContextVar("impactnet_defer_memory_waits", default=Fal
 
 #: Request ages: a lease made earlier is served first.
 _AGES = itertools.count()
+#: Bytes of a reservation that may pass older waiters when it fits now: a single pair's whole
+#: body (the default `max_pair_body_bytes`) or solve, answered in about a millisecond. Up to
+#: `max_concurrency` of them at once hold back a waiting batch by a few MiB at most, and a
+#: simulator's single pairs never wait behind a batch's memory.
+PASSING_BYTES = 64 * 1024
 
 
 class NeedMemory(Exception):  # noqa: N818 - a signal to the lane, not an error
@@ -128,9 +134,10 @@ class MemoryBudget:
         return self._queue[0] if self._queue else None
 
     def _may_take(self, n: int, age: int | None) -> bool:
-        """Reserve ``n`` now unless an older request waits (caller holds the lock)."""
+        """Reserve ``n`` now unless an older request waits and ``n`` is more than
+        :data:`PASSING_BYTES` (caller holds the lock)."""
         head = self._head()
-        if head is not None and (age is None or head.age < age):
+        if head is not None and (age is None or head.age < age) and n > PASSING_BYTES:
             return False
         return self._take(n)
 

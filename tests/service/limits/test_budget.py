@@ -8,9 +8,17 @@ import asyncio
 import pytest
 
 from impactnet.service.errors import Overloaded, PayloadTooLarge
-from impactnet.service.limits.budget import DEFER_WAITS, Lease, MemoryBudget, NeedMemory
+from impactnet.service.limits.budget import (
+    DEFER_WAITS,
+    PASSING_BYTES,
+    Lease,
+    MemoryBudget,
+    NeedMemory,
+)
 
-LIMIT = 100
+#: The tests' unit of memory (bytes): reservations of more than one unit queue.
+U = 2 * PASSING_BYTES
+LIMIT = 100 * U
 #: Seconds a test's waiters may wait: long against the few event-loop turns each test takes.
 WAIT_S = 5.0
 
@@ -27,26 +35,27 @@ def test_the_oldest_waiting_request_is_served_first_and_a_younger_one_cannot_tak
     async def scenario():
         budget = MemoryBudget(LIMIT, WAIT_S, 1)
         other, older, younger = Lease(budget), Lease(budget), Lease(budget)
-        await other.areserve(90, "another request")
+        await other.areserve(90 * U, "another request")
         served = []
 
         async def wait(lease: Lease, n: int, name: str) -> None:
             await lease.areserve(n, name)
             served.append(name)
 
-        tasks = [asyncio.create_task(wait(younger, 5, "younger"))]
+        tasks = [asyncio.create_task(wait(younger, 5 * U, "younger"))]
         await _turns()
-        tasks.append(asyncio.create_task(wait(older, 50, "older")))
+        tasks.append(asyncio.create_task(wait(older, 50 * U, "older")))
         await _turns()
         assert served == ["younger"]  # it fitted, and nobody older waited then
         assert budget.waiting == 1
-        assert not budget.try_reserve(5, younger.age)  # an older request waits: no room
-        assert budget.try_reserve(1, other.age)  # the oldest request may take what fits
-        budget.release(1)
+        assert not budget.try_reserve(U, younger.age)  # an older request waits: no room
+        assert budget.try_reserve(PASSING_BYTES, younger.age)  # a single pair's bytes pass
+        assert budget.try_reserve(U, other.age)  # the oldest request may take what fits
+        budget.release(PASSING_BYTES + U)
         other.release()
         await asyncio.gather(*tasks)
-        assert served == ["younger", "older"] and budget.used == 55
-        assert (older.held, younger.held) == (50, 5)
+        assert served == ["younger", "older"] and budget.used == 55 * U
+        assert (older.held, younger.held) == (50 * U, 5 * U)
 
     asyncio.run(scenario())
 
@@ -82,9 +91,9 @@ def test_waiters_that_hold_what_the_oldest_needs_are_refused_at_once_youngest_fi
         budget = MemoryBudget(LIMIT, WAIT_S, 1)
         leases = [Lease(budget) for _ in range(3)]
         for lease in leases:
-            await lease.areserve(30, "a body")
+            await lease.areserve(30 * U, "a body")
         started = asyncio.get_running_loop().time()
-        waits = [asyncio.create_task(lease.areserve(40, "solving")) for lease in leases]
+        waits = [asyncio.create_task(lease.areserve(40 * U, "solving")) for lease in leases]
         # 90 held by waiters leaves 10 for the oldest's 40, even once everything else is
         # released: the youngest gives way at once (60 held leaves the oldest its 40)
         with pytest.raises(Overloaded):
@@ -93,10 +102,10 @@ def test_waiters_that_hold_what_the_oldest_needs_are_refused_at_once_youngest_fi
         assert budget.waiting == 2
         leases[2].release()  # its 503 is answered
         await waits[0]
-        assert leases[0].held == 70 and budget.used == 100
+        assert leases[0].held == 70 * U and budget.used == 100 * U
         leases[0].release()  # the oldest is answered: the next one fits
         await waits[1]
-        assert leases[1].held == 70 and budget.used == 70
+        assert leases[1].held == 70 * U and budget.used == 70 * U
         assert asyncio.get_running_loop().time() - started < WAIT_S / 2
 
     asyncio.run(scenario())
@@ -106,15 +115,15 @@ def test_a_wait_that_runs_out_is_503_and_lets_the_next_waiter_in():
     async def scenario():
         budget = MemoryBudget(LIMIT, 0.05, 7)
         other, big, small = Lease(budget), Lease(budget), Lease(budget)
-        await other.areserve(60, "another request")
-        big_wait = asyncio.create_task(big.areserve(50, "a large batch"))
+        await other.areserve(60 * U, "another request")
+        big_wait = asyncio.create_task(big.areserve(50 * U, "a large batch"))
         await _turns()
-        small_wait = asyncio.create_task(small.areserve(30, "a small batch"))
+        small_wait = asyncio.create_task(small.areserve(30 * U, "a small batch"))
         with pytest.raises(Overloaded) as refused:
             await big_wait
         assert refused.value.headers["Retry-After"] == "7"
         await small_wait  # it fitted all along; it waited only behind the older one
-        assert budget.used == 90 and budget.waiting == 0
+        assert budget.used == 90 * U and budget.waiting == 0
 
     asyncio.run(scenario())
 
@@ -123,12 +132,12 @@ def test_a_reservation_beyond_the_whole_budget_with_what_its_request_holds_is_41
     async def scenario():
         budget = MemoryBudget(LIMIT, WAIT_S, 1)
         lease = Lease(budget)
-        await lease.areserve(60, "a body")
-        with pytest.raises(PayloadTooLarge, match="with the 60 bytes its request holds"):
-            await lease.areserve(50, "solving")
+        await lease.areserve(60 * U, "a body")
+        with pytest.raises(PayloadTooLarge, match=f"with the {60 * U} bytes its request holds"):
+            await lease.areserve(50 * U, "solving")
         with pytest.raises(PayloadTooLarge, match="whole budget"):
             await Lease(budget).areserve(LIMIT + 1, "a body")
-        assert budget.used == 60
+        assert budget.used == 60 * U
 
     asyncio.run(scenario())
 
@@ -136,26 +145,26 @@ def test_a_reservation_beyond_the_whole_budget_with_what_its_request_holds_is_41
 def test_a_deferred_reservation_without_room_raises_need_memory_and_reserves_nothing():
     budget = MemoryBudget(LIMIT, WAIT_S, 1)
     other, lease = Lease(budget), Lease(budget)
-    other.reserve(80, "another request")
+    other.reserve(80 * U, "another request")
     token = DEFER_WAITS.set(True)
     try:
         with pytest.raises(NeedMemory) as need:
-            lease.reserve(30, "solving")
+            lease.reserve(30 * U, "solving")
     finally:
         DEFER_WAITS.reset(token)
-    assert (need.value.n, need.value.lease) == (30, lease)
-    assert lease.held == 0 and budget.used == 80
+    assert (need.value.n, need.value.lease) == (30 * U, lease)
+    assert lease.held == 0 and budget.used == 80 * U
 
 
 def test_paid_bytes_are_taken_by_the_step_run_again_and_counted_once():
     async def scenario():
         budget = MemoryBudget(LIMIT, WAIT_S, 1)
         lease = Lease(budget)
-        await lease.prepay(NeedMemory(30, "solving", lease))
-        assert (lease.held, lease.credit, budget.used) == (30, 30, 30)
-        lease.reserve(20, "solving")  # from the credit
-        lease.reserve(15, "the answer")  # 10 from the credit, 5 more
-        assert (lease.held, lease.credit, budget.used) == (35, 0, 35)
+        await lease.prepay(NeedMemory(30 * U, "solving", lease))
+        assert (lease.held, lease.credit, budget.used) == (30 * U, 30 * U, 30 * U)
+        lease.reserve(20 * U, "solving")  # from the credit
+        lease.reserve(15 * U, "the answer")  # 10 from the credit, 5 more
+        assert (lease.held, lease.credit, budget.used) == (35 * U, 0, 35 * U)
         lease.release()
         assert budget.used == 0
 
