@@ -18,7 +18,12 @@ from impactnet.models.compound.sat_faces import (
     separations,
     turn,
 )
-from impactnet.models.compound.sat_walk import TREE_STACK, edge_walk, tie_rule
+from impactnet.models.compound.sat_walk import (
+    SCAN_PAIRS,
+    TREE_STACK,
+    edge_walk,
+    tie_rule,
+)
 
 
 class SatWork(NamedTuple):
@@ -44,6 +49,7 @@ class SatWork(NamedTuple):
     edge_bound_a: np.ndarray  # (E,) A's edges' bounds (m)
     edge_bound_b: np.ndarray  # (E,) B's
     stack: np.ndarray  # (TREE_STACK, 2) int64 node pairs of the tree walk
+    scan: np.ndarray  # (1,) int64: rows of at most this many edge pairs scan every pair
 
 
 @jit
@@ -56,7 +62,7 @@ def sat_work(vertices, faces, edges, nodes):
                    np.empty(vertices, np.int64), np.zeros(1, np.int64), np.empty((edges, 3)),
                    np.empty((nodes, 3)), np.empty((nodes, 3)), np.empty(nodes),
                    np.empty(nodes), np.empty(edges), np.empty(edges),
-                   np.empty((TREE_STACK, 2), np.int64))
+                   np.empty((TREE_STACK, 2), np.int64), np.full(1, SCAN_PAIRS, np.int64))
 
 
 class AxisRows(NamedTuple):
@@ -135,6 +141,38 @@ def _margins(hulls, ha, hb, t, rot, k, scale):
 
 
 @jit
+def _walked(tables, tree_a, tree_b, edges_a, edges_b, hulls, faces, work, frame, row):
+    """Stages 3a and 3b of a row of larger hulls: the caps' centres -R c and edge-direction
+    axes R d of B turned, the margins, the bounds of an edge separation on both trees' edges
+    and nodes (they serve where both hulls are convex; those below the faces by the first
+    margin stay coarse), then the walk of the two trees. ``tables``: (A's and B's edge
+    angles and node starts, B's caps' centres and edge-direction axes); ``row``: (ha, hb, t,
+    rot, k, scale, face_top, stop)."""
+    ha, hb, t, rot, k, scale, face_top, stop = row
+    angle_a, angle_b, nstart_a, nstart_b, centres_b0, dirs_b0 = tables
+    na0, nb0, ea0, eb0, va0, fa0 = frame[0], frame[1], frame[2], frame[3], frame[4], frame[5]
+    vertices, normals, offsets = faces[0], faces[1], faces[2]
+    turn(centres_b0, nb0, nstart_b[hb + 1] - nb0, rot, k, t, False, -1.0, work.nodes_b)
+    turn(dirs_b0, nb0, nstart_b[hb + 1] - nb0, rot, k, t, False, 1.0, work.dirs_b)
+    bounded, any_margin, best_margin, near, far, magnitude = _margins(hulls, ha, hb, t, rot, k,
+                                                                      scale)
+    slack, cut = FLOOD_TOL_REL * magnitude, face_top - any_margin
+    edge_bounds(edges_a[1], ea0, angle_a, work.sep_a, work.support_a, work.gap_a,
+                slack, hulls[3][hb], work.y, 0, normals, fa0, offsets, fa0, tree_a[11],
+                tree_a[9], tree_a[10], tree_a[7], tree_a[8], na0, nstart_a[ha + 1] - na0,
+                cut, work.edge_bound_a, work.bound_a)
+    edge_bounds(edges_b[1], eb0, angle_b, work.sep_b, work.support_b, work.gap_b,
+                slack, hulls[2][ha], vertices, va0, work.normals_b, 0, work.offsets_b, 0,
+                tree_b[9], tree_b[7], tree_b[8], tree_b[5], tree_b[6], nb0,
+                nstart_b[hb + 1] - nb0, cut, work.edge_bound_b, work.bound_b)
+    bounds = (work.bound_a, work.bound_b, work.edge_bound_a, work.edge_bound_b, work.stack)
+    return edge_walk(tree_a, tree_b, work.nodes_b, work.dirs_b, edges_a, edges_b, vertices,
+                     work.y, normals, work.normals_b, work.arcs_b, bounds, frame,
+                     (face_top, DEPTH_GAIN_TOL_REL * scale, bounded, any_margin, best_margin,
+                      near, far), stop, False)
+
+
+@jit
 def sat_rows(ta, ia, tb, ib, t, rot, out, base, start, stop, work, full):
     """The separating-axis test of rows start..stop (module docstring): row k of hull
     ``ia[k]`` of table ``ta`` (A, :attr:`HullTable.arrays`) and hull ``ib[k]`` of ``tb`` (B)
@@ -161,14 +199,15 @@ def sat_rows(ta, ia, tb, ib, t, rot, out, base, start, stop, work, full):
               tb.node_left, tb.node_right, tb.node_first, tb.node_count, tb.tree_edge,
               tb.edge_dir)
     edges_a, edges_b = (ta.edges, ta.edge_faces), (tb.edges, tb.edge_faces)
-    vertices, normals, offsets = ta.vertices, ta.face_normals, ta.face_offsets
+    vertices, normals = ta.vertices, ta.face_normals
     vstart_a, fstart_a, estart_a, nstart_a = (ta.vertex_start, ta.face_start, ta.edge_start,
                                               ta.node_start)
     fstart_b, estart_b, nstart_b = tb.face_start, tb.edge_start, tb.node_start
     arcs_b0, centres_b0, dirs_b0 = tb.edge_arcs, tb.node_centre, tb.node_dir
     half_a, half_b, centre_a = ta.half_extent, tb.half_extent, ta.centre
     y, normals_b = work.y, work.normals_b
-    bounds = (work.bound_a, work.bound_b, work.edge_bound_a, work.edge_bound_b, work.stack)
+    walk_tables = (ta.edge_angle, tb.edge_angle, nstart_a, nstart_b, centres_b0, dirs_b0)
+    scan_bounds = (work.bound_a, work.bound_b, work.edge_bound_a, work.edge_bound_b, work.stack)
     for k in range(start, stop):
         ha, hb = ia[k], ib[k]
         if ha < 0:
@@ -187,31 +226,21 @@ def sat_rows(ta, ia, tb, ib, t, rot, out, base, start, stop, work, full):
             continue
         best, face_top, face, top_face = face_choice(work.sep_a, nfa, work.sep_b, nfb, scale)
         normal = face_normal(normals, fa0, normals_b, nfa, face)
-        # Stage 3a: the edge search's frame (B's arcs R (n1 x n0), caps' centres -R c and
-        # edge-direction axes R d), margins, and the bounds of an edge separation on both
-        # trees' edges and nodes (they serve where both hulls are convex; those below the
-        # faces by the first margin stay coarse).
+        # Stage 3a: the edge search's frame (B's arcs R (n1 x n0)); small hulls then test
+        # every pair of edges (stage 3b, the walk's scan), larger ones walk their trees.
         turn(arcs_b0, eb0, estart_b[hb + 1] - eb0, rot, k, t, False, 1.0, work.arcs_b)
-        turn(centres_b0, nb0, nstart_b[hb + 1] - nb0, rot, k, t, False, -1.0, work.nodes_b)
-        turn(dirs_b0, nb0, nstart_b[hb + 1] - nb0, rot, k, t, False, 1.0, work.dirs_b)
-        bounded, any_margin, best_margin, near, far, magnitude = _margins(hulls, ha, hb, t,
-                                                                          rot, k, scale)
-        slack, cut = FLOOD_TOL_REL * magnitude, face_top - any_margin
-        edge_bounds(edges_a[1], ea0, ta.edge_angle, work.sep_a, work.support_a, work.gap_a,
-                    slack, hulls[3][hb], y, 0, normals, fa0, offsets, fa0, tree_a[11],
-                    tree_a[9], tree_a[10], tree_a[7], tree_a[8], na0, nstart_a[ha + 1] - na0,
-                    cut, work.edge_bound_a, work.bound_a)
-        edge_bounds(edges_b[1], eb0, tb.edge_angle, work.sep_b, work.support_b, work.gap_b,
-                    slack, hulls[2][ha], vertices, va0, normals_b, 0, work.offsets_b, 0,
-                    tree_b[9], tree_b[7], tree_b[8], tree_b[5], tree_b[6], nb0,
-                    nstart_b[hb + 1] - nb0, cut, work.edge_bound_b, work.bound_b)
-        # Stage 3b: the walk of the two trees; stage 4: the tie rule.
         frame = (na0, nb0, ea0, eb0, va0, fa0, rot, k,
                  (centre_a[ha, 0], centre_a[ha, 1], centre_a[ha, 2]), scale, normal)
-        found = edge_walk(tree_a, tree_b, work.nodes_b, work.dirs_b, edges_a, edges_b,
-                          vertices, y, normals, normals_b, work.arcs_b, bounds, frame,
-                          (face_top, DEPTH_GAIN_TOL_REL * scale, bounded, any_margin,
-                           best_margin, near, far), limit)
+        count_a, count_b = estart_a[ha + 1] - ea0, estart_b[hb + 1] - eb0
+        if count_a * count_b <= work.scan[0]:
+            found = edge_walk(tree_a, tree_b, work.nodes_b, work.dirs_b, edges_a, edges_b,
+                              vertices, y, normals, normals_b, work.arcs_b, scan_bounds, frame,
+                              (face_top, DEPTH_GAIN_TOL_REL * scale, False, 0.0, 0.0, 0.0, 0.0),
+                              limit, True)
+        else:
+            found = _walked(walk_tables, tree_a, tree_b, edges_a, edges_b, hulls, faces, work,
+                            frame, (ha, hb, t, rot, k, scale, face_top, limit))
+        # Stage 4: the tie rule.
         colliding, kind, own, depth, normal, edge_a, edge_b, point = tie_rule(
             vertices, normals, normals_b, edges_a[0], edges_b[0], y, frame,
             (best, face_top, face, top_face, nfa), found)

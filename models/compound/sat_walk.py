@@ -27,6 +27,15 @@ FACE_A, FACE_B, EDGE = 0, 1, 2
 #: down to the leaves. Measured on two 256-sided heads resting on each other (the walk's
 #: worst case): 32 - 64 cost least.
 PAIR_BLOCK = 16
+#: Rows of two hulls with at most this many edge pairs (edges of A x edges of B) test every
+#: pair (:func:`edge_walk` with ``scan``: the two roots taken as one block, nothing pruned)
+#: instead of walking the trees: below it, the walk's set-up (B's caps turned, both trees'
+#: bounds) costs more than the pairs it saves. Measured per row (whole contact, resting poses,
+#: one thread; walk / scan, us): box x box (144 pairs) 6.9 / 5.1, an aperture's ring piece x
+#: box (216) 7.7 / 6.0, 8-sided head x box (288) 7.2 / 6.0, head x ring (432) 9.0 / 8.4,
+#: 16-sided head x box (576) 9.6 / 8.7, head16 x ring (864) 11.6 / 12.7, head32 x box (1,152)
+#: 13.1 / 14.5.
+SCAN_PAIRS = 640
 #: Pairs of tree nodes waiting in the walk of the two Gauss-map trees (at most the two trees'
 #: depths together: 2 x 12 levels for 16,000 edges).
 TREE_STACK = 128
@@ -37,7 +46,7 @@ SINE_ROUNDING = 1e-12
 
 @jit
 def edge_walk(tree_a, tree_b, nodes_b, dirs_b, edges_a, edges_b, vertices, y, normals,
-              normals_b, arcs_b, bounds, row, bar_in, stop):
+              normals_b, arcs_b, bounds, row, bar_in, stop, scan):
     """Stage 3b: the two Gauss-map trees walked together (module docstring). A pair of nodes is
     dropped where its caps do not meet, or where no pair of its edges separates more than the
     faces, or than the best pair found less the depth gain; at two small nodes
@@ -53,7 +62,10 @@ def edge_walk(tree_a, tree_b, nodes_b, dirs_b, edges_a, edges_b, vertices, y, no
     Returns (top, top_a, top_b, free, free_a, free_b, banned): the largest separation and its
     pair (lowest on ties), the largest of the pairs not banned by rule 1 and its pair, the
     largest of the banned; the walk stops once an edge pair separates by more than ``stop``
-    (metres; ``inf``: never)."""
+    (metres; ``inf``: never). ``scan``: every pair of edges tested (:data:`SCAN_PAIRS`): the
+    roots are one block, no cap or bound is read (B's caps, directions and both trees' bounds
+    need not be set), so nothing is pruned; the answer is the walk's (the walk prunes only
+    pairs that cannot change it)."""
     (radius_a, cos_a, sin_a, centre_a, dir_a, cone_cos_a, cone_sin_a, left_a, right_a, first_a,
      count_a, tree_edge_a, dir_edge_a, arcs_a) = tree_a
     (radius_b, cos_b, sin_b, cone_cos_b, cone_sin_b, left_b, right_b, first_b, count_b,
@@ -71,12 +83,12 @@ def edge_walk(tree_a, tree_b, nodes_b, dirs_b, edges_a, edges_b, vertices, y, no
         size -= 1
         i, j = stack[size, 0], stack[size, 1]
         gi, gj = na0 + i, nb0 + j
-        if radius_a[gi] + radius_b[gj] < math.pi and (
+        if not scan and radius_a[gi] + radius_b[gj] < math.pi and (
                 centre_a[gi, 0] * nodes_b[j, 0] + centre_a[gi, 1] * nodes_b[j, 1]
                 + centre_a[gi, 2] * nodes_b[j, 2]) < (cos_a[gi] * cos_b[gj]
                                                       - sin_a[gi] * sin_b[gj]):
             continue  # the caps are apart: no arc crosses
-        bound = min(bound_a[i], bound_b[j])
+        bound = np.inf if scan else min(bound_a[i], bound_b[j])
         if bound == -np.inf:
             continue  # arcs that cross nothing
         bar = max(face_top, top - gain)
@@ -92,7 +104,7 @@ def edge_walk(tree_a, tree_b, nodes_b, dirs_b, edges_a, edges_b, vertices, y, no
                 if sine > 0.0 and bound + prune_margin(sine, near, far) <= bar:
                     continue
         leaf_a, leaf_b = left_a[gi] < 0, left_b[gj] < 0
-        if not (leaf_a and leaf_b) and count_a[gi] * count_b[gj] > PAIR_BLOCK:
+        if not scan and not (leaf_a and leaf_b) and count_a[gi] * count_b[gj] > PAIR_BLOCK:
             # open the wider cap, the child of larger bound first
             if leaf_b or (not leaf_a and radius_a[gi] >= radius_b[gj]):
                 near_child, far_child = left_a[gi], right_a[gi]
@@ -118,7 +130,7 @@ def edge_walk(tree_a, tree_b, nodes_b, dirs_b, edges_a, edges_b, vertices, y, no
                 eb = tree_edge_b[r]
                 # the pair's own bound, as the nodes' (its edges' sine from their directions,
                 # less a trace for their rounding)
-                bound = min(edge_bound_a[ea], edge_bound_b[eb])
+                bound = np.inf if scan else min(edge_bound_a[ea], edge_bound_b[eb])
                 bar = max(face_top, top - gain)
                 if bound == -np.inf or (bounded and bound + any_margin <= bar):
                     continue

@@ -126,3 +126,58 @@ def test_the_kernels_module_registers_the_convex_warm_up():
 
     assert cc.warm_up in compiled._WARM_UPS
     cc.warm_up()  # compiles or loads every convex kernel
+
+
+def _with_scan(work, pairs: int):
+    """``work`` whose rows scan every edge pair where they have at most ``pairs`` of them."""
+    return work._replace(sat=work.sat._replace(scan=np.full(1, pairs, np.int64)))
+
+
+def _small_families():
+    """Rows of small hulls (a box, an aperture's ring piece, an 8-sided head), random, resting
+    on each other and exactly aligned."""
+    container = cb.container("40ft", detail=2)
+    ring = hull_of(next(p for p in container if "/ring_" in p.name))
+    box, head = box_hull((0.2, 0.15, 0.1)), convex_cases.head(8)
+    pairs = [(box, ring), (ring, box), (ring, ring), (head, box), (ring, head)]
+    for i, (a, b) in enumerate(pairs):
+        yield a, b, convex_cases.random_poses(a, b, 40, 40 + i)
+        yield a, b, convex_cases.resting_poses(a, b, 24, 50 + i, 1e-6)
+        yield a, b, convex_cases.aligned_poses(a, b, 60 + i)
+
+
+def test_scanning_every_edge_pair_gives_the_walks_answers():
+    """Rows of small hulls test every edge pair (``SCAN_PAIRS``), larger ones walk the two
+    Gauss-map trees: forced one way or the other on every row, every field of every row is
+    the same bits (the walk drops only pairs that cannot change the answer), the test alone
+    and the contacts, whole answers and separated rows stopped early."""
+    table, ia, ib, (pa, ra, pb, rb) = _mixed()
+    rows = [(table, ia, table, ib, (pa, ra, pb, rb))]
+    for a, b, poses in _small_families():
+        z = np.zeros(len(poses[0]), np.int64)
+        rows.append((stack_hulls((a,)), z, stack_hulls((b,)), z, poses))
+    seen = {"touching": 0, "apart": 0, "edge axes": 0}
+    for ta, ia, tb, ib, (pa, ra, pb, rb) in rows:
+        t, rot = cc.relative_poses(pa, ra, pb, rb)
+        t, rot = np.ascontiguousarray(t), np.ascontiguousarray(rot)
+        work, m = cc.make_work(*cc.work_sizes(ta, tb)), len(ia)
+        answers = []
+        for pairs in (0, 1 << 40):
+            out = cc.contact_rows_for(m)
+            cc.contact_rows(ta.arrays, ia, tb.arrays, ib, t, rot, np.ascontiguousarray(pa),
+                             np.ascontiguousarray(ra), out, 0, m, _with_scan(work, pairs), True)
+            whole, early = cs.axis_rows(m), cs.axis_rows(m)
+            for axis, full in ((whole, True), (early, False)):
+                cs.sat_rows(ta.arrays, ia, tb.arrays, ib, t, rot, axis, 0, 0, m,
+                            _with_scan(work, pairs).sat, full)
+            answers.append((out._asdict(), whole._asdict(), early.colliding))
+        (walked, walked_axis, walked_early), (scanned, scanned_axis, scanned_early) = answers
+        for ours, theirs in ((walked, scanned), (walked_axis, scanned_axis)):
+            for field, column in ours.items():
+                np.testing.assert_array_equal(column, theirs[field], err_msg=field)
+        np.testing.assert_array_equal(walked_early, scanned_early)
+        np.testing.assert_array_equal(walked_early, walked["colliding"])
+        seen["touching"] += int(walked["colliding"].sum())
+        seen["apart"] += int((~walked["colliding"]).sum())
+        seen["edge axes"] += int((walked_axis["kind"] == cs.EDGE).sum())
+    assert min(seen.values()) > 10, seen
