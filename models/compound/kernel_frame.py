@@ -102,6 +102,13 @@ def unit(rows, i):
 
 
 @jit
+def bad_quaternions(quaternions_a, quaternions_b):
+    """Whether a row of either (k, 4) array fails :func:`bad_quaternion` (one call for a
+    pose's two bodies)."""
+    return bad_quaternion(quaternions_a) or bad_quaternion(quaternions_b)
+
+
+@jit
 def bad_quaternion(quaternions):
     """Whether a row of (k, 4) quaternions is not finite or of a norm below
     :data:`~impactnet.models.geometry.rotations.QUATERNION_MIN_NORM` (the Python entry then

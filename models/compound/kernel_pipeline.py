@@ -225,10 +225,9 @@ def _found(tables, index_a, index_b, poses, n, broad):
 
 
 @jit
-def answer_rows(tables, index_a, index_b, poses, found, n):
-    """Stages 2-4 and the gather of n poses of given candidates, serially: the
-    :func:`gather` arrays, then the summary's."""
-    scratch = scratch_for(tables)
+def answer_rows(tables, index_a, index_b, poses, found, n, scratch):
+    """Stages 2-4 and the gather of n poses of given candidates, serially (``scratch``:
+    :func:`scratch_for` the tables): the :func:`gather` arrays, then the summary's."""
     m = found[0][n]
     rows = (rows_for(m), convex_inputs_for(m))
     kept_rows, kept, summary = np.empty(m, np.int64), np.empty(n, np.int64), summary_for(n)
@@ -244,8 +243,9 @@ def answer_serial(reals_a, ints_a, flags_a, reals_b, ints_b, flags_b, index_a, i
     :func:`gather` arrays, then the summary's."""
     tables = unpacked(reals_a, ints_a, flags_a, reals_b, ints_b, flags_b)
     poses = (position_a, quaternion_a, position_b, quaternion_b)
-    found = _found(tables, index_a, index_b, poses, n, scratch_for(tables)[0])
-    return answer_rows(tables, index_a, index_b, poses, found, n)
+    scratch = scratch_for(tables)
+    found = _found(tables, index_a, index_b, poses, n, scratch[0])
+    return answer_rows(tables, index_a, index_b, poses, found, n, scratch)
 
 
 @jit
@@ -256,4 +256,4 @@ def answer_given(reals_a, ints_a, flags_a, reals_b, ints_b, flags_b, index_a, in
     tables = unpacked(reals_a, ints_a, flags_a, reals_b, ints_b, flags_b)
     poses = (position_a, quaternion_a, position_b, quaternion_b)
     return answer_rows(tables, index_a, index_b, poses, (offsets, cand_a, cand_b),
-                       offsets.shape[0] - 1)
+                       offsets.shape[0] - 1, scratch_for(tables))

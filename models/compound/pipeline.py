@@ -20,7 +20,7 @@ from impactnet.models.compiled import PARALLEL_MIN_ROWS, chunks, launch, numba
 from impactnet.models.compound import kernel_launch as kl
 from impactnet.models.compound import kernel_pipeline as kp
 from impactnet.models.compound.body_table import body_table
-from impactnet.models.compound.kernel_frame import bad_quaternion
+from impactnet.models.compound.kernel_frame import bad_quaternions
 from impactnet.models.compound.kernel_narrowphase import convex_inputs_for, rows_for
 from impactnet.models.compound.results import BodySummary, PartContacts, made
 from impactnet.models.contacts import Contacts
@@ -59,11 +59,13 @@ def pose_rows(position_a, quaternion_a, position_b, quaternion_b):
     (1 or n each), checked as the NumPy oracle checked them (its errors)."""
     rows = (_rows(position_a, 3), _rows(quaternion_a, 4), _rows(position_b, 3),
             _rows(quaternion_b, 4))
-    n = max(rows[0].shape[0], rows[1].shape[0], rows[2].shape[0], rows[3].shape[0])
-    for row, width in zip(rows, (3, 4, 3, 4)):
-        if row.ndim != 2 or row.shape[1] != width or row.shape[0] not in (1, n):
-            _refused(rows, n)
-    if bad_quaternion(rows[1]) or bad_quaternion(rows[3]):
+    shapes = (rows[0].shape, rows[1].shape, rows[2].shape, rows[3].shape)
+    n = max(shapes[0][0], shapes[1][0], shapes[2][0], shapes[3][0])
+    if shapes != ((1, 3), (1, 4), (1, 3), (1, 4)):  # one pose: every check holds
+        for shape, width in zip(shapes, (3, 4, 3, 4)):
+            if len(shape) != 2 or shape[1] != width or shape[0] not in (1, n):
+                _refused(rows, n)
+    if bad_quaternions(rows[1], rows[3]):
         _refused(rows, n)
     return rows, n
 
