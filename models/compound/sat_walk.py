@@ -30,11 +30,11 @@ PAIR_BLOCK = 16
 #: Rows of two hulls with at most this many edge pairs (edges of A x edges of B) test every
 #: pair (:func:`edge_walk` with ``scan``: the two roots taken as one block, nothing pruned)
 #: instead of walking the trees: below it, the walk's set-up (B's caps turned, both trees'
-#: bounds) costs more than the pairs it saves. Measured per row (whole contact, resting poses,
-#: one thread; walk / scan, us): box x box (144 pairs) 6.9 / 5.1, an aperture's ring piece x
-#: box (216) 7.7 / 6.0, 8-sided head x box (288) 7.2 / 6.0, head x ring (432) 9.0 / 8.4,
-#: 16-sided head x box (576) 9.6 / 8.7, head16 x ring (864) 11.6 / 12.7, head32 x box (1,152)
-#: 13.1 / 14.5.
+#: bounds) costs more than the pairs it saves. Measured per row (whole contact, resting
+#: poses, one thread; ``python -m tests.models.compound.convex_bench --scan``; walk / scan,
+#: us): box x box (144 pairs) 6.9 / 5.1, an aperture's ring piece x box (216) 7.7 / 6.0,
+#: 8-sided head x box (288) 7.2 / 6.0, head x ring (432) 9.0 / 8.4, 16-sided head x box (576)
+#: 9.6 / 8.7, head16 x ring (864) 11.6 / 12.7, head32 x box (1,152) 13.1 / 14.5.
 SCAN_PAIRS = 640
 #: Pairs of tree nodes waiting in the walk of the two Gauss-map trees (at most the two trees'
 #: depths together: 2 x 12 levels for 16,000 edges).

@@ -13,6 +13,11 @@ One thread (the kernel threads set to 1), medians of repeated runs:
 
 Only public entries are timed, so the same module times an older solver where that one is on
 the path instead.
+
+``--scan``: the choice of ``SCAN_PAIRS`` (:mod:`impactnet.models.compound.sat_walk`): per row
+of two small hulls (a box, an aperture's ring pieces, 8- to 32-sided heads; seeded resting
+poses, 1 mm tilt), the whole contact with every row forced to walk the Gauss-map trees and
+forced to test every edge pair.
 """
 from __future__ import annotations
 
@@ -76,15 +81,57 @@ def answer_costs() -> list[dict]:
     return rows
 
 
+def scan_costs() -> list[dict]:
+    """Seconds per row of the contact rows, the edge search forced to walk, then to scan."""
+    from impactnet.models.compound import convex_contact as cc
+    from impactnet.models.compound import crane_bodies as cb
+    from impactnet.models.compound.hull import box_hull, hull_of
+    from impactnet.models.compound.hull_stack import stack_hulls
+    from tests.models.compound.convex_cases import head, resting_poses
+
+    rings = [hull_of(p) for p in cb.container("40ft", detail=2) if "/ring_" in p.name]
+    hulls = {"box": box_hull((0.2, 0.15, 0.1)), "ring12": min(rings, key=lambda h: len(h.edges)),
+             "ring18": max(rings, key=lambda h: len(h.edges)), "head8": head(8),
+             "head16": head(16), "head32": head(32)}
+    rows = []
+    for name_a, name_b in (("box", "box"), ("ring12", "box"), ("ring18", "box"),
+                           ("head8", "box"), ("ring18", "ring18"), ("head8", "ring18"),
+                           ("head16", "box"), ("head16", "ring18"), ("head32", "box"),
+                           ("head32", "ring18")):
+        a, b = hulls[name_a], hulls[name_b]
+        pa, ra, pb, rb = resting_poses(a, b, 400, 7, 1e-3)
+        ta, tb, z = stack_hulls((a,)), stack_hulls((b,)), np.zeros(len(pa), np.int64)
+        t, rot = (np.ascontiguousarray(x) for x in cc.relative_poses(pa, ra, pb, rb))
+        work, out = cc.make_work(*cc.work_sizes(ta, tb)), cc.contact_rows_for(len(pa))
+        row = {"a": name_a, "b": name_b, "pairs": len(a.edges) * len(b.edges)}
+        for label, pairs in (("walk_s", 0), ("scan_s", 1 << 40)):
+            forced = work._replace(sat=work.sat._replace(scan=np.full(1, pairs, np.int64)))
+
+            def call(forced=forced):
+                cc.contact_rows(ta.arrays, z, tb.arrays, z, t, rot, pa, ra, out, 0, len(pa),
+                                forced, False)
+            call()
+            row[label] = _median_time(call, 7) / len(pa)
+        rows.append(row)
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", help="also write the figures here")
+    parser.add_argument("--scan", action="store_true",
+                        help="only the edge search's walk against its scan (SCAN_PAIRS)")
     args = parser.parse_args()
     try:
         from impactnet.models.compiled import set_threads
         set_threads(1)
     except ImportError:  # a solver without compiled kernels
         pass
+    if args.scan:
+        for row in scan_costs():
+            print(f"{row['a']:6s} x {row['b']:6s} ({row['pairs']:5d} edge pairs): walk "
+                  f"{row['walk_s'] * 1e6:6.2f} us, scan {row['scan_s'] * 1e6:6.2f} us a row")
+        return
     figures = {"pairs": pair_costs(), "answers": answer_costs()}
     for row in figures["pairs"]:
         print(f"head {row['sides']:3d} on {row['on']:5s}: {row['batch_s'] * 1e6:10.1f} us/pair "
