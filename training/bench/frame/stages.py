@@ -14,8 +14,8 @@ In-process stages (:func:`frame_stages`), in the order ``answer_frame`` runs the
 * **box pairs**: the box solver on the box rows (``_box_rows``);
 * **compound oracle**: the candidates' narrowphase, covered-surface filter and summary, slice
   by slice (``_compound_slice``);
-* **gaps**: the closest part pair of every compound pair found apart (the dispatcher gives a
-  separated pair its separating direction even without a margin; a frame then drops it);
+* **gaps**: the closest part pair of the compound pairs found apart that a frame still asks
+  about (at margin 0, only those whose part bounds met: a frame drops the rest unasked);
 * **frame answer**: the kept rows taken out of the answers (``frame_answer``).
 
 The rest is the merge of the slices' answers and the glue. These are the dispatcher's private
@@ -67,7 +67,8 @@ def frame_stages(bodies: Bodies, dispatcher: Dispatcher, margin: float = 0.0):
     position, quaternion = bodies.position.copy(), bodies.quaternion.copy()
     found = frame_pairs(bodies, margin)
     n = len(found.pairs)
-    plan = dispatcher.count(dispatcher.plan(found.pairs, "exact", (), margin), caps)
+    # the plan answer_frame makes: rows apart beyond the margin get no separating direction
+    plan = dispatcher.count(dispatcher.plan(found.pairs, "exact", (), margin, caps, False), caps)
     filled = _compound(plan, caps, Pieces(n))
     answers = dispatcher.solve(plan, caps)
 
@@ -76,7 +77,8 @@ def frame_stages(bodies: Bodies, dispatcher: Dispatcher, margin: float = 0.0):
         "bodies (arrays to Bodies, rotations)":
             lambda: fresh_bodies(bodies, position, quaternion).rotation,
         "broadphase (frame_pairs)": lambda: frame_pairs(bodies, margin),
-        "plan (split, sphere test)": lambda: dispatcher.plan(found.pairs, "exact", (), margin),
+        "plan (split, sphere test)": lambda: dispatcher.plan(found.pairs, "exact", (), margin,
+                                                             caps, False),
         "count (part candidates)": lambda: dispatcher.count(plan, caps),
         "box pairs (box solver)": lambda: sv._box_rows(Pieces(n), plan, box, caps),
         "compound oracle (narrowphase, filter, summary)":
