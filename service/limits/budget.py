@@ -184,13 +184,33 @@ class MemoryBudget:
             await asyncio.wait_for(asyncio.shield(waiter.future), self.wait_s)
         except TimeoutError:
             pass
+        except BaseException:  # refused at once, or cancelled (an upload's deadline)
+            self._abandon(waiter)
+            raise
         with self._lock:
             if waiter.granted:
                 return
-            waiter.gone = True
-            waiter.future.cancel()  # nothing settles it any more
-            self._grant()  # the next waiter may fit where this one did not
+            self._left(waiter)
         raise self._refuse(n, what)
+
+    def _left(self, waiter: _Waiter) -> None:
+        """``waiter`` leaves the queue ungranted (caller holds the lock)."""
+        waiter.gone = True
+        waiter.future.cancel()  # nothing settles it any more
+        self._grant()  # the next waiter may fit where this one did not
+
+    def _abandon(self, waiter: _Waiter) -> None:
+        """A waiter whose request stopped waiting: out of the queue, and the bytes granted to
+        it just before given back (its lease never counted them)."""
+        with self._lock:
+            if waiter.granted:
+                self.used -= waiter.n
+                waiter.granted = False
+                self._grant()
+                if self._thread_waiting:
+                    self._room.notify_all()
+            elif not waiter.gone:
+                self._left(waiter)
 
     def _grant(self) -> None:
         """Serve waiters, oldest first, while the oldest fits (caller holds the lock)."""

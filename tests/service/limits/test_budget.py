@@ -169,3 +169,33 @@ def test_paid_bytes_are_taken_by_the_step_run_again_and_counted_once():
         assert budget.used == 0
 
     asyncio.run(scenario())
+
+
+def test_a_waiter_cancelled_in_the_queue_holds_nothing_and_blocks_nobody():
+    """An upload's deadline cancels its body read while a chunk waits for room: the waiter
+    leaves the queue, and bytes granted to it just before are given back (they were reserved
+    for nobody, for ever)."""
+    async def scenario():
+        budget = MemoryBudget(LIMIT, WAIT_S, 1)
+        other, cancelled, younger = Lease(budget), Lease(budget), Lease(budget)
+        await other.areserve(90 * U, "another request")
+        waiting = asyncio.create_task(cancelled.areserve(50 * U, "a body chunk"))
+        await _turns()
+        waiting.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await waiting
+        assert budget.waiting == 0
+        after = asyncio.create_task(younger.areserve(8 * U, "a batch"))
+        await _turns()
+        assert after.done() and budget.used == 98 * U  # nobody older waits any more
+        # granted at the moment it was cancelled: given back
+        granted = asyncio.create_task(cancelled.areserve(5 * U, "a body chunk"))
+        await _turns()
+        younger.release()  # grants the waiter, whose task is cancelled before it resumes
+        other.release()
+        granted.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await granted
+        assert budget.used == 0 and cancelled.held == 0
+
+    asyncio.run(scenario())
