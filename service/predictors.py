@@ -104,17 +104,19 @@ def warm_up(state: ServingState) -> None:
     warm_up_compound()
 
 
-def settle_heap() -> None:
-    """Collect, then exempt every object alive now (the libraries, the scene, the models)
-    from the cyclic garbage collector's later passes (``gc.freeze``), before ready (the
-    setting ``freeze_heap``).
+def settle_heap(settings) -> None:
+    """Where ``settings.freeze_heap`` says so: collect, then exempt every object alive now
+    (the libraries, the scene, the models) from the cyclic garbage collector's later passes
+    (``gc.freeze``), before ready.
 
     A full pass walks every tracked object while it holds the GIL: with numba, SciPy and
-    the models loaded that took ~50 ms, and serving large JSON answers (millions of small
-    lists) starts one every second or so: /healthz stalled 80-120 ms at each (measured
-    under ``tests/service/hostile/test_memory.py``'s sixteen manifold batches; 40-55 ms
-    after). A reload unfreezes first, so that the old state can be collected.
+    the models loaded that took ~70 ms, and serving large JSON answers (millions of small
+    lists) starts one every second or so: /healthz stalled 80-120 ms at each (p99 78-94 ms
+    under ``tests/service/hostile/test_memory.py``'s sixteen manifold batches; 6.5-11 ms
+    frozen). A reload unfreezes first, so that the old state can be collected.
     """
+    if not settings.freeze_heap:
+        return
     gc.unfreeze()
     gc.collect()
     gc.freeze()

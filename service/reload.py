@@ -103,8 +103,7 @@ class Reloader:
             new = state_for(old.scene, path, runtime.settings, on_step=self._at)
             self._at("warm_up")
             warm_up(new)
-            if runtime.settings.freeze_heap:
-                settle_heap()
+            settle_heap(runtime.settings)
         except LoadError as exc:
             raise ReloadFailed(422, exc.step, str(exc), str(path), serving) from exc
         except Exception as exc:  # noqa: BLE001 - whatever breaks, the old state keeps serving

@@ -128,8 +128,7 @@ class Runtime:
                                          "seconds": round(time.perf_counter() - started, 3)})
         state = prebuilt or build_state(self.settings)
         warm_up(state)
-        if self.settings.freeze_heap:
-            settle_heap()
+        settle_heap(self.settings)
         return state
 
     async def load(self, prebuilt: ServingState | None = None) -> None:

@@ -141,13 +141,15 @@ def _margins(hulls, ha, hb, t, rot, k, scale):
 
 
 @jit
-def _walked(tables, tree_a, tree_b, edges_a, edges_b, hulls, faces, work, frame, row):
+def _walked(tables, tree_a, tree_b, edges_a, edges_b, hulls, faces, work, bounds, frame,
+            row):
     """Stages 3a and 3b of a row of larger hulls: the caps' centres -R c and edge-direction
     axes R d of B turned, the margins, the bounds of an edge separation on both trees' edges
     and nodes (they serve where both hulls are convex; those below the faces by the first
     margin stay coarse), then the walk of the two trees. ``tables``: (A's and B's edge
-    angles and node starts, B's caps' centres and edge-direction axes); ``row``: (ha, hb, t,
-    rot, k, scale, face_top, stop)."""
+    angles and node starts, B's caps' centres and edge-direction axes); ``bounds``: the
+    walk's (:func:`edge_walk`), in ``work``; ``row``: (ha, hb, t, rot, k, scale, face_top,
+    stop)."""
     ha, hb, t, rot, k, scale, face_top, stop = row
     angle_a, angle_b, nstart_a, nstart_b, centres_b0, dirs_b0 = tables
     na0, nb0, ea0, eb0, va0, fa0 = frame[0], frame[1], frame[2], frame[3], frame[4], frame[5]
@@ -207,7 +209,7 @@ def sat_rows(ta, ia, tb, ib, t, rot, out, base, start, stop, work, full):
     half_a, half_b, centre_a = ta.half_extent, tb.half_extent, ta.centre
     y, normals_b = work.y, work.normals_b
     walk_tables = (ta.edge_angle, tb.edge_angle, nstart_a, nstart_b, centres_b0, dirs_b0)
-    scan_bounds = (work.bound_a, work.bound_b, work.edge_bound_a, work.edge_bound_b, work.stack)
+    bounds = (work.bound_a, work.bound_b, work.edge_bound_a, work.edge_bound_b, work.stack)
     for k in range(start, stop):
         ha, hb = ia[k], ib[k]
         if ha < 0:
@@ -234,12 +236,12 @@ def sat_rows(ta, ia, tb, ib, t, rot, out, base, start, stop, work, full):
         count_a, count_b = estart_a[ha + 1] - ea0, estart_b[hb + 1] - eb0
         if count_a * count_b <= work.scan[0]:
             found = edge_walk(tree_a, tree_b, work.nodes_b, work.dirs_b, edges_a, edges_b,
-                              vertices, y, normals, normals_b, work.arcs_b, scan_bounds, frame,
+                              vertices, y, normals, normals_b, work.arcs_b, bounds, frame,
                               (face_top, DEPTH_GAIN_TOL_REL * scale, False, 0.0, 0.0, 0.0, 0.0),
                               limit, True)
         else:
             found = _walked(walk_tables, tree_a, tree_b, edges_a, edges_b, hulls, faces, work,
-                            frame, (ha, hb, t, rot, k, scale, face_top, limit))
+                            bounds, frame, (ha, hb, t, rot, k, scale, face_top, limit))
         # Stage 4: the tie rule.
         colliding, kind, own, depth, normal, edge_a, edge_b, point = tie_rule(
             vertices, normals, normals_b, edges_a[0], edges_b[0], y, frame,

@@ -110,7 +110,8 @@ class MemoryBudget:
         """Reservations waiting on the event loop."""
         return sum(not w.gone for w in self._queue)
 
-    def _check_size(self, n: int, what: str, held: int = 0) -> None:
+    def check_size(self, n: int, what: str, held: int = 0) -> None:
+        """413 where ``n`` bytes, with the ``held`` bytes of their request, could never fit."""
         if n + held > self.limit:
             more = f" with the {held} bytes its request holds already" if held else ""
             raise PayloadTooLarge("batch_too_large", f"{what} needs {n} bytes of memory{more}, "
@@ -150,7 +151,7 @@ class MemoryBudget:
     def reserve(self, n: int, what: str) -> None:
         """Reserve ``n`` bytes, waiting in this thread up to ``wait_s`` (callers with nothing
         else running; the server's steps wait on the event loop: :class:`NeedMemory`)."""
-        self._check_size(n, what)
+        self.check_size(n, what)
         deadline = time.monotonic() + self.wait_s
         with self._lock:
             while not self._may_take(n, None):
@@ -171,7 +172,7 @@ class MemoryBudget:
     async def areserve(self, n: int, what: str, lease: Lease | None = None) -> None:
         """Reserve ``n`` bytes from the event loop, in the queue (module docstring), waiting up
         to ``wait_s``; ``lease``: the request's (its age and what it holds)."""
-        self._check_size(n, what, lease.held if lease is not None else 0)
+        self.check_size(n, what, lease.held if lease is not None else 0)
         age = lease.age if lease is not None else next(_AGES)
         with self._lock:
             if self._may_take(n, age):
@@ -285,7 +286,7 @@ class Lease:
         if n <= 0:
             return
         if DEFER_WAITS.get():
-            self.budget._check_size(n, what, self.held)
+            self.budget.check_size(n, what, self.held)
             if not self.budget.try_reserve(n, self.age):
                 raise NeedMemory(n, what, self)
         else:

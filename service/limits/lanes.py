@@ -76,6 +76,17 @@ async def _watch_disconnect(receive: Receive, limit: WorkLimit) -> None:
             return
 
 
+async def _paid(attempt):
+    """``await attempt()`` until it runs without :class:`NeedMemory`, the bytes it found
+    missing paid on the event loop before each new attempt."""
+    while True:
+        try:
+            return await attempt()
+        except NeedMemory as need:
+            missing = need
+        await missing.lease.prepay(missing)
+
+
 class Work:
     """The computing steps of one request: one deadline, one disconnect watcher (made by the
     first step run in a lane).
@@ -115,25 +126,19 @@ class Work:
         its context (the request id); run again after the memory it found missing is paid
         (module docstring); 503 when the large lane's queue is full, 504 past the deadline,
         :class:`ClientGone` when the client left."""
-        while True:
-            try:
-                return await self._run_once(cost, function, args)
-            except NeedMemory as need:
-                missing = need
-            await missing.lease.prepay(missing)
+        return await _paid(lambda: self._run_once(cost, function, args))
 
     async def inline(self, function, *args):
         """``function(*args)`` here on the event loop (work cheaper than a hop to a lane),
         run again after the memory it found missing is paid on the loop."""
-        while True:
+        async def attempt():
             token = DEFER_WAITS.set(True)
             try:
                 return function(*args)
-            except NeedMemory as need:
-                missing = need
             finally:
                 DEFER_WAITS.reset(token)
-            await missing.lease.prepay(missing)
+
+        return await _paid(attempt)
 
     async def _run_once(self, cost: float, function, args: tuple):
         limit, lanes = self.limit, self.runtime.lanes
